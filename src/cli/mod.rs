@@ -1,0 +1,81 @@
+//! The command line of DESIGN.md §3, the only module that knows every stage. Each command
+//! lives in its own file; exit codes: 0 success, 1 wrong input or a mesh that could not be
+//! completed, 2 usage or I/O error.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand, ValueEnum};
+
+mod bytecode;
+mod check;
+mod eval;
+mod fmt;
+mod mesh;
+mod render;
+
+/// Exit code: the input is wrong, or a mesh could not be completed.
+pub const EXIT_INPUT: u8 = 1;
+/// Exit code: usage or I/O error.
+pub const EXIT_USAGE: u8 = 2;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "surfc",
+    version,
+    about = "Compile .surf files and triangulate their surfaces"
+)]
+pub struct Cli {
+    /// When to colour diagnostics.
+    #[arg(long, global = true, value_enum, default_value_t = ColorMode::Auto)]
+    pub color: ColorMode,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ColorMode {
+    Auto,
+    Always,
+    Never,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Parse and check files; diagnostics on stderr.
+    Check(check::CheckArgs),
+    /// Print a file in canonical formatting.
+    Fmt(fmt::FmtArgs),
+    /// Triangulate the mesh blocks of a file.
+    Mesh(mesh::MeshArgs),
+    /// Draw the meshes of a file into a PNG or SVG picture.
+    Render(render::RenderArgs),
+    /// Value and gradient of a surface at a point.
+    Eval(eval::EvalArgs),
+    /// The compiled program of a surface, one instruction a line.
+    Bytecode(bytecode::BytecodeArgs),
+}
+
+/// Parses the process arguments and runs the command.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    ExitCode::from(run(cli))
+}
+
+/// Runs a parsed command line; returns the exit code.
+pub fn run(cli: Cli) -> u8 {
+    let color = cli.color;
+    match cli.command {
+        Command::Check(args) => check::run(args, color),
+        Command::Fmt(args) => fmt::run(args, color),
+        Command::Mesh(args) => mesh::run(args, color),
+        Command::Render(args) => render::run(args, color),
+        Command::Eval(args) => eval::run(args, color),
+        Command::Bytecode(args) => bytecode::run(args, color),
+    }
+}
+
+/// Placeholder for a command whose stage has not landed yet.
+pub(crate) fn not_yet(what: &str) -> u8 {
+    eprintln!("error: `surfc {what}` is not implemented yet");
+    EXIT_USAGE
+}

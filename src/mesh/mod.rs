@@ -1,0 +1,24 @@
+//! Mesh: the triangles the marcher produced — vertices, unit normals (from ∇f), triangles
+//! oriented so that their normals agree with ∇f. Topology and quality reports and the file
+//! writers live in submodules and see meshes only through this type.
+
+use glam::DVec3;
+
+/// A triangle mesh of one surface.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    pub vertices: Vec<DVec3>,
+    /// Unit normal at each vertex, ∇f/|∇f|.
+    pub normals: Vec<DVec3>,
+    /// Vertex indices, counter-clockwise seen from the side ∇f points to.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// A mesh with the name of its mesh block: what writers put into one file. Meshes written to
+/// one file that share bit-identical vertices (the polygons of a shared curve) share those
+/// vertices in the file, so that they form one coherent net.
+#[derive(Clone, Copy, Debug)]
+pub struct NamedMesh<'a> {
+    pub name: &'a str,
+    pub mesh: &'a Mesh,
+}

@@ -1,0 +1,7 @@
+//! Numerical solvers on top of the surface oracle: Hartmann's surfacepoint projection (paper
+//! Sect. 2.2), and later foot points and curve tracing. Tolerances are named in `tolerance`.
+
+pub mod surfacepoint;
+pub mod tolerance;
+
+pub use surfacepoint::{SurfacePoint, SurfacePointError, surface_point, tangent_frame};

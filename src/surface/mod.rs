@@ -1,0 +1,56 @@
+//! The surface oracle: what the marcher (and every numerical routine) knows of a surface —
+//! a value and a gradient at a point, nothing of how the surface was written (paper Sect. 2:
+//! the representation is hidden behind surfacepoint).
+
+use glam::DVec3;
+
+/// f(p) and ∇f(p) at one point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ValueGrad {
+    pub value: f64,
+    pub gradient: DVec3,
+}
+
+/// An implicit surface f(x, y, z) = 0.
+///
+/// Methods take `&mut self` so that an implementation may keep scratch registers or a
+/// warm-start cache (foot-point searches) without interior mutability; the marcher owns its
+/// surface exclusively. Domain errors (sqrt of a negative, …) come back as NaN or infinity,
+/// which callers detect; implementations never panic on them.
+pub trait Surface {
+    /// f(p).
+    fn value(&mut self, p: DVec3) -> f64 {
+        self.value_gradient(p).value
+    }
+
+    /// f(p) and ∇f(p).
+    fn value_gradient(&mut self, p: DVec3) -> ValueGrad;
+}
+
+impl<S: Surface + ?Sized> Surface for Box<S> {
+    fn value(&mut self, p: DVec3) -> f64 {
+        (**self).value(p)
+    }
+    fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+        (**self).value_gradient(p)
+    }
+}
+
+impl<S: Surface + ?Sized> Surface for &mut S {
+    fn value(&mut self, p: DVec3) -> f64 {
+        (**self).value(p)
+    }
+    fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+        (**self).value_gradient(p)
+    }
+}
+
+/// A surface given by a Rust closure returning value and gradient: for tests, benches and
+/// native baselines.
+pub struct NativeSurface<F>(pub F);
+
+impl<F: FnMut(DVec3) -> ValueGrad> Surface for NativeSurface<F> {
+    fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+        (self.0)(p)
+    }
+}

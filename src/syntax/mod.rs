@@ -1,0 +1,2 @@
+//! Syntax: `.surf` text → pest parse tree → owned AST in which every node carries its span.
+//! Knows nothing of meaning (that is `sema`) or of meshing.
