@@ -54,3 +54,21 @@ impl<F: FnMut(DVec3) -> ValueGrad> Surface for NativeSurface<F> {
         (self.0)(p)
     }
 }
+
+/// A parametric patch (u, v) → X(u, v), with its partial derivatives (the 3×2 Jacobian).
+/// The formula is valid beyond its declared domain; the domain bounds its `boundary` curve
+/// and seeds foot-point searches.
+pub trait Patch {
+    /// X(u, v), ∂X/∂u, ∂X/∂v.
+    fn point_jacobian(&mut self, u: f64, v: f64) -> PatchJet;
+    /// Declared domain: (u_lo, u_hi), (v_lo, v_hi).
+    fn domain(&self) -> ((f64, f64), (f64, f64));
+}
+
+/// A patch point with its partial derivatives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PatchJet {
+    pub point: DVec3,
+    pub du: DVec3,
+    pub dv: DVec3,
+}
