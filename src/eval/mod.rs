@@ -1,2 +1,381 @@
-//! Evaluator: runs a verified tape for value, and value + gradient (automatic
-//! differentiation), at one point or a batch of points.
+//! Evaluator: runs a verified tape for value, and for value + gradient by forward-mode
+//! automatic differentiation (dual numbers: a value and three partials per register), at one
+//! point or over a batch of points.
+//!
+//! The registers live in the [`Vm`] and are reused, so an evaluation allocates nothing. The
+//! batch path keeps the instruction dispatch outside the point loop: it runs each instruction
+//! over [`LANES`] points at a time (structure-of-arrays registers), which lets the compiler
+//! vectorise the arithmetic. `dist` instructions call the tape's child surfaces.
+
+pub mod ops;
+
+use glam::DVec3;
+
+use crate::compile::tape::{Op, Tape};
+use crate::surface::{Surface, ValueGrad};
+pub use ops::Grad;
+
+/// Points per batch block: 32 keeps a register (4 × 32 f64 with gradients) at 1 KiB, so the
+/// working set of a tape of a few dozen registers stays in the L1 cache.
+pub const LANES: usize = 32;
+
+type Lanes = [f64; LANES];
+
+/// One register over a block of points, with gradients: structure of arrays.
+#[derive(Clone, Copy)]
+struct GradLanes {
+    v: Lanes,
+    dx: Lanes,
+    dy: Lanes,
+    dz: Lanes,
+}
+
+impl GradLanes {
+    const ZERO: GradLanes = GradLanes {
+        v: [0.0; LANES],
+        dx: [0.0; LANES],
+        dy: [0.0; LANES],
+        dz: [0.0; LANES],
+    };
+
+    fn splat(g: Grad) -> GradLanes {
+        GradLanes {
+            v: [g.v; LANES],
+            dx: [g.dx; LANES],
+            dy: [g.dy; LANES],
+            dz: [g.dz; LANES],
+        }
+    }
+
+    #[inline(always)]
+    fn get(&self, i: usize) -> Grad {
+        Grad::new(self.v[i], self.dx[i], self.dy[i], self.dz[i])
+    }
+
+    #[inline(always)]
+    fn set(&mut self, i: usize, g: Grad) {
+        self.v[i] = g.v;
+        self.dx[i] = g.dx;
+        self.dy[i] = g.dy;
+        self.dz[i] = g.dz;
+    }
+}
+
+/// Why a VM could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum VmError {
+    #[error("the tape evaluates {expected} child surfaces, but {found} were given")]
+    ChildCount { expected: usize, found: usize },
+}
+
+/// A tape with its child surfaces and its registers.
+pub struct Vm {
+    tape: Tape,
+    children: Vec<Box<dyn Surface>>,
+    values: Vec<f64>,
+    grads: Vec<Grad>,
+    lane_values: Vec<Lanes>,
+    lane_grads: Vec<GradLanes>,
+}
+
+impl std::fmt::Debug for Vm {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Vm")
+            .field("tape", &self.tape)
+            .field("children", &self.children.len())
+            .finish_non_exhaustive()
+    }
+}
+
+/// Out, a, b of a block instruction as disjoint borrows (the verifier guarantees that an
+/// instruction never writes one of its operands).
+#[inline(always)]
+fn split3<T>(regs: &mut [T], o: usize, a: usize, b: usize) -> Option<(&mut T, &T, &T)> {
+    if o == a || o == b {
+        return None;
+    }
+    let (lo, rest) = regs.split_at_mut(o);
+    let (out, hi) = rest.split_first_mut()?;
+    let (lo, hi): (&[T], &[T]) = (lo, hi);
+    let pick = |r: usize| {
+        if r < o { lo.get(r) } else { hi.get(r - o - 1) }
+    };
+    Some((out, pick(a)?, pick(b)?))
+}
+
+/// The point a `dist` instruction measures from: the first three inputs.
+fn point_of(inputs: &[f64]) -> DVec3 {
+    let c = |i: usize| inputs.get(i).copied().unwrap_or(0.0);
+    DVec3::new(c(0), c(1), c(2))
+}
+
+/// Runs `$run!(op)` with `op` a constant, so each arm inlines `ops::value`/`ops::grad` for
+/// one opcode and the lane loop around it is specialised (and vectorised).
+macro_rules! per_opcode {
+    ($op:expr, $run:ident) => {
+        match $op {
+            Op::Neg => $run!(Op::Neg),
+            Op::Square => $run!(Op::Square),
+            Op::Recip => $run!(Op::Recip),
+            Op::Sqrt => $run!(Op::Sqrt),
+            Op::Abs => $run!(Op::Abs),
+            Op::Exp => $run!(Op::Exp),
+            Op::Ln => $run!(Op::Ln),
+            Op::Sin => $run!(Op::Sin),
+            Op::Cos => $run!(Op::Cos),
+            Op::Tan => $run!(Op::Tan),
+            Op::Asin => $run!(Op::Asin),
+            Op::Acos => $run!(Op::Acos),
+            Op::Atan => $run!(Op::Atan),
+            Op::Sinh => $run!(Op::Sinh),
+            Op::Cosh => $run!(Op::Cosh),
+            Op::Tanh => $run!(Op::Tanh),
+            Op::Add => $run!(Op::Add),
+            Op::Sub => $run!(Op::Sub),
+            Op::Mul => $run!(Op::Mul),
+            Op::Div => $run!(Op::Div),
+            Op::Pow => $run!(Op::Pow),
+            Op::Atan2 => $run!(Op::Atan2),
+            Op::Min => $run!(Op::Min),
+            Op::Max => $run!(Op::Max),
+            Op::Hypot => $run!(Op::Hypot),
+            Op::Dist => {}
+        }
+    };
+}
+
+fn value_lanes(op: Op, o: &mut Lanes, a: &Lanes, b: &Lanes) {
+    macro_rules! run {
+        ($k:expr) => {
+            for i in 0..LANES {
+                o[i] = ops::value($k, a[i], b[i]);
+            }
+        };
+    }
+    per_opcode!(op, run)
+}
+
+fn grad_lanes(op: Op, o: &mut GradLanes, a: &GradLanes, b: &GradLanes) {
+    macro_rules! run {
+        ($k:expr) => {
+            for i in 0..LANES {
+                o.set(i, ops::grad($k, a.get(i), b.get(i)));
+            }
+        };
+    }
+    per_opcode!(op, run)
+}
+
+impl Vm {
+    /// A VM for `tape`; `children[k]` is the surface of its `dist #k`.
+    pub fn new(tape: Tape, children: Vec<Box<dyn Surface>>) -> Result<Vm, VmError> {
+        if children.len() != tape.children() {
+            return Err(VmError::ChildCount {
+                expected: tape.children(),
+                found: children.len(),
+            });
+        }
+        let mut values = vec![0.0; tape.registers()];
+        let mut grads = vec![Grad::default(); tape.registers()];
+        for (i, &c) in tape.constants().iter().enumerate() {
+            values[tape.inputs() + i] = c;
+            grads[tape.inputs() + i] = Grad::constant(c);
+        }
+        Ok(Vm {
+            tape,
+            children,
+            values,
+            grads,
+            lane_values: Vec::new(),
+            lane_grads: Vec::new(),
+        })
+    }
+
+    pub fn tape(&self) -> &Tape {
+        &self.tape
+    }
+
+    fn run_values(&mut self, inputs: &[f64]) {
+        let Vm {
+            tape,
+            children,
+            values,
+            ..
+        } = self;
+        for (i, r) in values.iter_mut().enumerate().take(tape.inputs()) {
+            *r = inputs.get(i).copied().unwrap_or(0.0);
+        }
+        for ins in tape.instrs() {
+            let v = match ins.op {
+                Op::Dist => match children.get_mut(ins.child().index()) {
+                    Some(child) => child.value(point_of(inputs)),
+                    None => f64::NAN,
+                },
+                op => ops::value(op, values[ins.a.index()], values[ins.b.index()]),
+            };
+            values[ins.out.index()] = v;
+        }
+    }
+
+    fn run_grads(&mut self, inputs: &[f64]) {
+        let Vm {
+            tape,
+            children,
+            grads,
+            ..
+        } = self;
+        for (axis, r) in grads.iter_mut().enumerate().take(tape.inputs()) {
+            *r = Grad::input(inputs.get(axis).copied().unwrap_or(0.0), axis);
+        }
+        for ins in tape.instrs() {
+            let g = match ins.op {
+                Op::Dist => match children.get_mut(ins.child().index()) {
+                    Some(child) => {
+                        let vg = child.value_gradient(point_of(inputs));
+                        let d = vg.gradient;
+                        Grad::new(vg.value, d.x, d.y, d.z)
+                    }
+                    None => Grad::constant(f64::NAN),
+                },
+                op => ops::grad(op, grads[ins.a.index()], grads[ins.b.index()]),
+            };
+            grads[ins.out.index()] = g;
+        }
+    }
+
+    /// The first output at one point (`inputs`: x, y, z or u, v; missing ones read as 0).
+    pub fn value(&mut self, inputs: &[f64]) -> f64 {
+        self.run_values(inputs);
+        self.values[self.tape.outputs()[0].index()]
+    }
+
+    /// The first output with its partial derivatives by the inputs.
+    pub fn value_grad(&mut self, inputs: &[f64]) -> Grad {
+        self.run_grads(inputs);
+        self.grads[self.tape.outputs()[0].index()]
+    }
+
+    /// Every output with its partials, into `out` (as many as fit).
+    pub fn grad_outputs(&mut self, inputs: &[f64], out: &mut [Grad]) {
+        self.run_grads(inputs);
+        for (o, r) in out.iter_mut().zip(self.tape.outputs()) {
+            *o = self.grads[r.index()];
+        }
+    }
+
+    fn init_lanes(&mut self) {
+        if self.lane_values.len() == self.tape.registers() {
+            return;
+        }
+        let n = self.tape.registers();
+        self.lane_values = vec![[0.0; LANES]; n];
+        self.lane_grads = vec![GradLanes::ZERO; n];
+        for (i, &c) in self.tape.constants().iter().enumerate() {
+            let r = self.tape.inputs() + i;
+            self.lane_values[r] = [c; LANES];
+            self.lane_grads[r] = GradLanes::splat(Grad::constant(c));
+        }
+        // The partials of the inputs are the same at every point: set them once.
+        for axis in 0..self.tape.inputs() {
+            self.lane_grads[axis] = GradLanes::splat(Grad::input(0.0, axis));
+        }
+    }
+
+    /// f at each point of a surface tape: `out[i] = f(points[i])` for i below the shorter
+    /// length.
+    pub fn value_batch(&mut self, points: &[DVec3], out: &mut [f64]) {
+        self.init_lanes();
+        let output = self.tape.outputs()[0].index();
+        for (pts, outs) in points.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            let n = pts.len().min(outs.len());
+            let Vm {
+                tape,
+                children,
+                lane_values: regs,
+                ..
+            } = self;
+            for (i, p) in pts.iter().enumerate() {
+                for (axis, c) in [p.x, p.y, p.z].into_iter().enumerate().take(tape.inputs()) {
+                    regs[axis][i] = c;
+                }
+            }
+            for ins in tape.instrs() {
+                let o = ins.out.index();
+                if ins.op == Op::Dist {
+                    let (Some(child), Some((lo, hi))) = (
+                        children.get_mut(ins.child().index()),
+                        split_inputs(regs, o, tape.inputs()),
+                    ) else {
+                        continue;
+                    };
+                    for (i, slot) in hi.iter_mut().enumerate().take(n) {
+                        *slot = child.value(DVec3::new(lo[0][i], lo[1][i], lo[2][i]));
+                    }
+                    continue;
+                }
+                if let Some((out, a, b)) = split3(regs, o, ins.a.index(), ins.b.index()) {
+                    value_lanes(ins.op, out, a, b);
+                }
+            }
+            outs[..n].copy_from_slice(&regs[output][..n]);
+        }
+    }
+
+    /// f and ∇f at each point of a surface tape, for i below the shorter length.
+    pub fn value_grad_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) {
+        self.init_lanes();
+        let output = self.tape.outputs()[0].index();
+        for (pts, outs) in points.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            let n = pts.len().min(outs.len());
+            let Vm {
+                tape,
+                children,
+                lane_grads: regs,
+                ..
+            } = self;
+            for (i, p) in pts.iter().enumerate() {
+                for (axis, c) in [p.x, p.y, p.z].into_iter().enumerate().take(tape.inputs()) {
+                    regs[axis].v[i] = c;
+                }
+            }
+            for ins in tape.instrs() {
+                let o = ins.out.index();
+                if ins.op == Op::Dist {
+                    let (Some(child), Some((lo, hi))) = (
+                        children.get_mut(ins.child().index()),
+                        split_inputs(regs, o, tape.inputs()),
+                    ) else {
+                        continue;
+                    };
+                    for i in 0..n {
+                        let p = DVec3::new(lo[0].v[i], lo[1].v[i], lo[2].v[i]);
+                        let vg = child.value_gradient(p);
+                        let d = vg.gradient;
+                        hi.set(i, Grad::new(vg.value, d.x, d.y, d.z));
+                    }
+                    continue;
+                }
+                if let Some((out, a, b)) = split3(regs, o, ins.a.index(), ins.b.index()) {
+                    grad_lanes(ins.op, out, a, b);
+                }
+            }
+            let r = &regs[output];
+            for (i, slot) in outs.iter_mut().enumerate().take(n) {
+                *slot = ValueGrad {
+                    value: r.v[i],
+                    gradient: DVec3::new(r.dx[i], r.dy[i], r.dz[i]),
+                };
+            }
+        }
+    }
+}
+
+/// The three input registers (read) and register `o` (written) of a `dist` instruction;
+/// None unless the tape has three inputs below `o`.
+fn split_inputs<T>(regs: &mut [T], o: usize, inputs: usize) -> Option<(&[T], &mut T)> {
+    if inputs != 3 || o < 3 {
+        return None;
+    }
+    let (lo, rest) = regs.split_at_mut(o);
+    Some((&lo[..3], rest.first_mut()?))
+}

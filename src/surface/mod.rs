@@ -2,6 +2,8 @@
 //! a value and a gradient at a point, nothing of how the surface was written (paper Sect. 2:
 //! the representation is hidden behind surfacepoint).
 
+pub mod compiled;
+
 use glam::DVec3;
 
 /// f(p) and ∇f(p) at one point.

@@ -1,0 +1,233 @@
+//! Lowering: the checked `Program`'s expression of one surface (or a patch's three
+//! coordinates) → nodes of the hash-consed [`Graph`]. Constants become numbers, `fn` calls are
+//! inlined (memoised on the function and its argument nodes, so nested repeated calls cost one
+//! body each), a named surface is replaced by its body (lowered once), and each distinct
+//! `dist` target becomes one `Dist` node.
+
+use std::collections::HashMap;
+
+use super::CompileError;
+use super::ir::{DistId, Graph, NodeId};
+use super::tape::Op;
+use crate::sema::program::{
+    Axis, BinaryOp, Builtin, Expr, ExprKind, FnId, Program, SurfaceId, SurfaceRef, UnaryOp,
+};
+use crate::span::Span;
+
+/// How deep expressions and inlined calls may nest before lowering gives up (instead of
+/// overflowing the stack).
+pub const MAX_DEPTH: u32 = 1000;
+
+/// What the expression being lowered is a function of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Domain {
+    /// x, y, z: inputs 0, 1, 2.
+    Space,
+    /// A patch's u, v: inputs 0, 1 (its `Param(0)`, `Param(1)`).
+    Patch,
+}
+
+/// The lowering of expressions of one program into one graph.
+pub struct Lowerer<'p> {
+    program: &'p Program,
+    domain: Domain,
+    pub graph: Graph,
+    calls: HashMap<(FnId, Vec<NodeId>), NodeId>,
+    surfaces: HashMap<SurfaceId, NodeId>,
+    /// Functions and surfaces being lowered (a cycle check; sema forbids cycles, but a
+    /// hand-built program must not overflow the stack).
+    active_fns: Vec<FnId>,
+    active_surfaces: Vec<SurfaceId>,
+    /// The targets of `dist`, each once, in order of first appearance, with where.
+    pub dists: Vec<(SurfaceRef, Span)>,
+    depth: u32,
+}
+
+impl<'p> Lowerer<'p> {
+    pub fn new(program: &'p Program, domain: Domain) -> Lowerer<'p> {
+        Lowerer {
+            program,
+            domain,
+            graph: Graph::new(),
+            calls: HashMap::new(),
+            surfaces: HashMap::new(),
+            active_fns: Vec::new(),
+            active_surfaces: Vec::new(),
+            dists: Vec::new(),
+            depth: 0,
+        }
+    }
+
+    /// The body of surface `id`, lowered once.
+    pub fn surface(&mut self, id: SurfaceId, span: Span) -> Result<NodeId, CompileError> {
+        if let Some(&n) = self.surfaces.get(&id) {
+            return Ok(n);
+        }
+        let def = self
+            .program
+            .surfaces
+            .get(id.index())
+            .ok_or(CompileError::NoSuchSurface { id, span })?;
+        if self.domain == Domain::Patch {
+            return Err(CompileError::CoordinatesInPatch { span });
+        }
+        if self.active_surfaces.contains(&id) {
+            return Err(CompileError::Cycle {
+                name: def.name.clone(),
+                span,
+            });
+        }
+        self.active_surfaces.push(id);
+        let n = self.expr(&def.body, &[]);
+        self.active_surfaces.pop();
+        let n = n?;
+        self.surfaces.insert(id, n);
+        Ok(n)
+    }
+
+    /// An expression whose `Param(i)` are `params[i]`.
+    pub fn expr(&mut self, e: &Expr, params: &[NodeId]) -> Result<NodeId, CompileError> {
+        if self.depth >= MAX_DEPTH {
+            return Err(CompileError::TooDeep { span: e.span });
+        }
+        self.depth += 1;
+        let n = self.expr_inner(e, params);
+        self.depth -= 1;
+        n
+    }
+
+    fn expr_inner(&mut self, e: &Expr, params: &[NodeId]) -> Result<NodeId, CompileError> {
+        let span = e.span;
+        Ok(match &e.kind {
+            ExprKind::Number(c) => self.graph.constant(*c),
+            ExprKind::Coord(axis) => {
+                if self.domain == Domain::Patch {
+                    return Err(CompileError::CoordinatesInPatch { span });
+                }
+                self.graph.input(match axis {
+                    Axis::X => 0,
+                    Axis::Y => 1,
+                    Axis::Z => 2,
+                })
+            }
+            ExprKind::Param(i) => *params
+                .get(*i as usize)
+                .ok_or(CompileError::UnboundParam { index: *i, span })?,
+            ExprKind::Const(id) => {
+                let c = self
+                    .program
+                    .constants
+                    .get(id.index())
+                    .ok_or(CompileError::NoSuchConst { id: *id, span })?;
+                self.graph.constant(c.value)
+            }
+            ExprKind::Unary(UnaryOp::Neg, a) => {
+                let a = self.expr(a, params)?;
+                self.graph.unary(Op::Neg, a)
+            }
+            ExprKind::Binary(op, a, b) => {
+                let a = self.expr(a, params)?;
+                let b = self.expr(b, params)?;
+                let op = match op {
+                    BinaryOp::Add => Op::Add,
+                    BinaryOp::Sub => Op::Sub,
+                    BinaryOp::Mul => Op::Mul,
+                    BinaryOp::Div => Op::Div,
+                    BinaryOp::Pow => Op::Pow,
+                };
+                self.graph.binary(op, a, b)
+            }
+            ExprKind::Builtin(builtin, args) => {
+                let mut nodes = Vec::with_capacity(args.len());
+                for arg in args {
+                    nodes.push(self.expr(arg, params)?);
+                }
+                let op = builtin_op(*builtin);
+                match (builtin.arity(), &nodes[..]) {
+                    (1, &[a]) => self.graph.unary(op, a),
+                    (2, &[a, b]) => self.graph.binary(op, a, b),
+                    _ => {
+                        return Err(CompileError::Arity {
+                            name: builtin.name().to_string(),
+                            expected: builtin.arity(),
+                            found: args.len(),
+                            span,
+                        });
+                    }
+                }
+            }
+            ExprKind::Call(id, args) => {
+                let def = self
+                    .program
+                    .functions
+                    .get(id.index())
+                    .ok_or(CompileError::NoSuchFn { id: *id, span })?;
+                if args.len() != def.params.len() {
+                    return Err(CompileError::Arity {
+                        name: def.name.clone(),
+                        expected: def.params.len(),
+                        found: args.len(),
+                        span,
+                    });
+                }
+                let mut nodes = Vec::with_capacity(args.len());
+                for arg in args {
+                    nodes.push(self.expr(arg, params)?);
+                }
+                let key = (*id, nodes);
+                if let Some(&n) = self.calls.get(&key) {
+                    return Ok(n);
+                }
+                if self.active_fns.contains(id) {
+                    return Err(CompileError::Cycle {
+                        name: def.name.clone(),
+                        span,
+                    });
+                }
+                self.active_fns.push(*id);
+                let n = self.expr(&def.body, &key.1);
+                self.active_fns.pop();
+                let n = n?;
+                self.calls.insert(key, n);
+                n
+            }
+            ExprKind::Surface(id) => self.surface(*id, span)?,
+            ExprKind::Dist(target) => {
+                if self.domain == Domain::Patch {
+                    return Err(CompileError::CoordinatesInPatch { span });
+                }
+                let k = match self.dists.iter().position(|(t, _)| t == target) {
+                    Some(k) => k,
+                    None => {
+                        self.dists.push((target.clone(), span));
+                        self.dists.len() - 1
+                    }
+                };
+                self.graph.dist(DistId(k as u32))
+            }
+        })
+    }
+}
+
+fn builtin_op(b: Builtin) -> Op {
+    match b {
+        Builtin::Sqrt => Op::Sqrt,
+        Builtin::Abs => Op::Abs,
+        Builtin::Exp => Op::Exp,
+        Builtin::Ln => Op::Ln,
+        Builtin::Sin => Op::Sin,
+        Builtin::Cos => Op::Cos,
+        Builtin::Tan => Op::Tan,
+        Builtin::Asin => Op::Asin,
+        Builtin::Acos => Op::Acos,
+        Builtin::Atan => Op::Atan,
+        Builtin::Atan2 => Op::Atan2,
+        Builtin::Sinh => Op::Sinh,
+        Builtin::Cosh => Op::Cosh,
+        Builtin::Tanh => Op::Tanh,
+        Builtin::Min => Op::Min,
+        Builtin::Max => Op::Max,
+        Builtin::Pow => Op::Pow,
+        Builtin::Hypot => Op::Hypot,
+    }
+}

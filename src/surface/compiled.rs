@@ -1,0 +1,89 @@
+//! Surfaces and patches backed by compiled tapes: the [`Surface`] and [`Patch`] oracles over
+//! the evaluator of `eval`. Build them with `compile::compile_surface` / `compile_patch`.
+
+use glam::DVec3;
+
+use super::{Patch, PatchJet, Surface, ValueGrad};
+use crate::compile::tape::Tape;
+use crate::eval::{Grad, Vm, VmError};
+
+/// An implicit surface f(x, y, z) = 0 evaluated from its tape.
+#[derive(Debug)]
+pub struct CompiledSurface {
+    vm: Vm,
+}
+
+impl CompiledSurface {
+    /// A surface from a tape with three inputs and its `dist` children.
+    pub fn new(tape: Tape, children: Vec<Box<dyn Surface>>) -> Result<Self, VmError> {
+        Ok(CompiledSurface {
+            vm: Vm::new(tape, children)?,
+        })
+    }
+
+    pub fn tape(&self) -> &Tape {
+        self.vm.tape()
+    }
+
+    /// f at each point: `out[i] = f(points[i])` for i below the shorter length.
+    pub fn value_batch(&mut self, points: &[DVec3], out: &mut [f64]) {
+        self.vm.value_batch(points, out);
+    }
+
+    /// f and ∇f at each point, for i below the shorter length.
+    pub fn value_gradient_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) {
+        self.vm.value_grad_batch(points, out);
+    }
+}
+
+impl Surface for CompiledSurface {
+    fn value(&mut self, p: DVec3) -> f64 {
+        self.vm.value(&[p.x, p.y, p.z])
+    }
+
+    fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+        let g = self.vm.value_grad(&[p.x, p.y, p.z]);
+        ValueGrad {
+            value: g.v,
+            gradient: DVec3::new(g.dx, g.dy, g.dz),
+        }
+    }
+}
+
+/// A parametric patch (u, v) → (X, Y, Z) evaluated from its tape; the Jacobian comes from
+/// dual numbers in (u, v).
+#[derive(Debug)]
+pub struct CompiledPatch {
+    vm: Vm,
+    domain: ((f64, f64), (f64, f64)),
+}
+
+impl CompiledPatch {
+    /// A patch from a tape with two inputs, three outputs and no children.
+    pub fn new(tape: Tape, domain: ((f64, f64), (f64, f64))) -> Result<Self, VmError> {
+        Ok(CompiledPatch {
+            vm: Vm::new(tape, Vec::new())?,
+            domain,
+        })
+    }
+
+    pub fn tape(&self) -> &Tape {
+        self.vm.tape()
+    }
+}
+
+impl Patch for CompiledPatch {
+    fn point_jacobian(&mut self, u: f64, v: f64) -> PatchJet {
+        let mut g = [Grad::default(); 3];
+        self.vm.grad_outputs(&[u, v], &mut g);
+        PatchJet {
+            point: DVec3::new(g[0].v, g[1].v, g[2].v),
+            du: DVec3::new(g[0].dx, g[1].dx, g[2].dx),
+            dv: DVec3::new(g[0].dy, g[1].dy, g[2].dy),
+        }
+    }
+
+    fn domain(&self) -> ((f64, f64), (f64, f64)) {
+        self.domain
+    }
+}
