@@ -1,4 +1,5 @@
-//! `surfc check FILE...`: parse and check; diagnostics on stderr.
+//! `surfc check FILE...`: parse and check every file; diagnostics on stderr. Exit 0 if no file
+//! has an error, 2 if a file could not be read, else 1.
 
 use std::path::PathBuf;
 
@@ -11,6 +12,12 @@ pub struct CheckArgs {
     pub files: Vec<PathBuf>,
 }
 
-pub fn run(_args: CheckArgs, _color: ColorMode) -> u8 {
-    super::not_yet("check")
+pub fn run(args: CheckArgs, color: ColorMode) -> u8 {
+    let mut worst = 0;
+    for path in &args.files {
+        if let Err(code) = super::load::load(path, color) {
+            worst = worst.max(code);
+        }
+    }
+    worst
 }

@@ -1,6 +1,11 @@
-//! `surfc fmt FILE`: print the file in canonical formatting.
+//! `surfc fmt FILE`: print the file in canonical formatting on stdout (comments kept). A file
+//! with syntax errors is not formatted: its diagnostics go to stderr and the exit code is 1.
 
+use std::io::Write;
 use std::path::PathBuf;
+
+use crate::diag;
+use crate::syntax;
 
 use super::ColorMode;
 
@@ -10,6 +15,25 @@ pub struct FmtArgs {
     pub file: PathBuf,
 }
 
-pub fn run(_args: FmtArgs, _color: ColorMode) -> u8 {
-    super::not_yet("fmt")
+pub fn run(args: FmtArgs, color: ColorMode) -> u8 {
+    let source = match super::load::read(&args.file, color) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let (file, diags) = syntax::parse(&source);
+    let Some(file) = file else {
+        let color = super::load::stderr_color(color);
+        diag::emit_stderr(&diags, &args.file.display().to_string(), &source, color);
+        return super::EXIT_INPUT;
+    };
+    let text = syntax::format(&file);
+    let mut out = std::io::stdout().lock();
+    if out
+        .write_all(text.as_bytes())
+        .and_then(|()| out.flush())
+        .is_err()
+    {
+        return super::EXIT_USAGE;
+    }
+    0
 }

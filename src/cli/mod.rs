@@ -10,6 +10,7 @@ mod bytecode;
 mod check;
 mod eval;
 mod fmt;
+mod load;
 mod mesh;
 mod render;
 

@@ -1,2 +1,192 @@
-//! Diagnostics as data (code, severity, spans, labels, help) and their rendering through
-//! codespan-reporting, in one place.
+//! Diagnostics as data (code, severity, labelled spans, help, notes) and their rendering
+//! through codespan-reporting. Every message a user reads is worded in `messages`; this file
+//! only knows how to print them. Rendering never fails: a span past the end of the source is
+//! clamped rather than dropped.
+
+pub mod messages;
+
+use std::io::Write;
+
+use codespan_reporting::diagnostic as cs;
+use codespan_reporting::files::SimpleFile;
+use codespan_reporting::term::{self, termcolor};
+
+use crate::span::Span;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Severity {
+    Error,
+    Warning,
+}
+
+/// One labelled span of a diagnostic. The primary label says what is wrong; secondary labels
+/// point at related places (the first definition of a duplicate, the steps of a cycle).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Label {
+    pub span: Span,
+    pub message: String,
+    pub primary: bool,
+}
+
+/// A diagnostic about the user's input.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Diagnostic {
+    /// Stable error code, `E0001` … for errors, `W0001` … for warnings (docs/language.md).
+    pub code: &'static str,
+    pub severity: Severity,
+    pub message: String,
+    pub labels: Vec<Label>,
+    /// A likely fix, if there is one.
+    pub help: Option<String>,
+    pub notes: Vec<String>,
+}
+
+impl Diagnostic {
+    pub fn error(code: &'static str, message: impl Into<String>) -> Diagnostic {
+        Diagnostic {
+            code,
+            severity: Severity::Error,
+            message: message.into(),
+            labels: Vec::new(),
+            help: None,
+            notes: Vec::new(),
+        }
+    }
+
+    pub fn warning(code: &'static str, message: impl Into<String>) -> Diagnostic {
+        Diagnostic {
+            severity: Severity::Warning,
+            ..Diagnostic::error(code, message)
+        }
+    }
+
+    pub fn primary(mut self, span: Span, message: impl Into<String>) -> Diagnostic {
+        self.labels.push(Label {
+            span,
+            message: message.into(),
+            primary: true,
+        });
+        self
+    }
+
+    pub fn secondary(mut self, span: Span, message: impl Into<String>) -> Diagnostic {
+        self.labels.push(Label {
+            span,
+            message: message.into(),
+            primary: false,
+        });
+        self
+    }
+
+    pub fn help(mut self, help: impl Into<String>) -> Diagnostic {
+        self.help = Some(help.into());
+        self
+    }
+
+    pub fn maybe_help(mut self, help: Option<String>) -> Diagnostic {
+        self.help = help;
+        self
+    }
+
+    pub fn note(mut self, note: impl Into<String>) -> Diagnostic {
+        self.notes.push(note.into());
+        self
+    }
+
+    pub fn is_error(&self) -> bool {
+        self.severity == Severity::Error
+    }
+
+    /// The span of the primary label, if any.
+    pub fn primary_span(&self) -> Option<Span> {
+        self.labels.iter().find(|l| l.primary).map(|l| l.span)
+    }
+}
+
+/// True if any diagnostic is an error.
+pub fn has_errors(diags: &[Diagnostic]) -> bool {
+    diags.iter().any(Diagnostic::is_error)
+}
+
+fn to_codespan(d: &Diagnostic, source_len: usize) -> cs::Diagnostic<()> {
+    let clamp = |s: Span| {
+        let r = s.range();
+        let end = r.end.min(source_len);
+        r.start.min(end)..end
+    };
+    let severity = match d.severity {
+        Severity::Error => cs::Severity::Error,
+        Severity::Warning => cs::Severity::Warning,
+    };
+    let labels = d
+        .labels
+        .iter()
+        .map(|l| {
+            let style = if l.primary {
+                cs::LabelStyle::Primary
+            } else {
+                cs::LabelStyle::Secondary
+            };
+            cs::Label::new(style, (), clamp(l.span)).with_message(l.message.clone())
+        })
+        .collect();
+    let mut notes = Vec::new();
+    if let Some(h) = &d.help {
+        notes.push(format!("help: {h}"));
+    }
+    notes.extend(d.notes.iter().map(|n| format!("note: {n}")));
+    cs::Diagnostic::new(severity)
+        .with_code(d.code)
+        .with_message(d.message.clone())
+        .with_labels(labels)
+        .with_notes(notes)
+}
+
+/// Renders diagnostics as text, with ANSI colours if `color`.
+pub fn render(diags: &[Diagnostic], file_name: &str, source: &str, color: bool) -> String {
+    let mut buffer = if color {
+        termcolor::Buffer::ansi()
+    } else {
+        termcolor::Buffer::no_color()
+    };
+    write_to(&mut buffer, diags, file_name, source);
+    String::from_utf8_lossy(buffer.as_slice()).into_owned()
+}
+
+/// Prints diagnostics to stderr, coloured if `color`.
+pub fn emit_stderr(diags: &[Diagnostic], file_name: &str, source: &str, color: bool) {
+    let choice = if color {
+        termcolor::ColorChoice::Always
+    } else {
+        termcolor::ColorChoice::Never
+    };
+    let stream = termcolor::StandardStream::stderr(choice);
+    let mut lock = stream.lock();
+    write_to(&mut lock, diags, file_name, source);
+    let _ = lock.flush();
+}
+
+fn write_to<W: termcolor::WriteColor>(
+    writer: &mut W,
+    diags: &[Diagnostic],
+    file_name: &str,
+    source: &str,
+) {
+    let file = SimpleFile::new(file_name, source);
+    let config = term::Config::default();
+    for d in diags {
+        let cd = to_codespan(d, source.len());
+        if term::emit_to_write_style(writer, &config, &file, &cd).is_err() {
+            // A span that codespan cannot place (never expected after clamping): print the
+            // message alone rather than lose it.
+            let _ = writeln!(writer, "{}[{}]: {}", severity_word(d), d.code, d.message);
+        }
+    }
+}
+
+fn severity_word(d: &Diagnostic) -> &'static str {
+    match d.severity {
+        Severity::Error => "error",
+        Severity::Warning => "warning",
+    }
+}

@@ -1,0 +1,590 @@
+//! Every message a user reads, worded in one place: one constructor per diagnostic, with its
+//! code. `CODES` lists every code with a one-line meaning (docs/language.md has the index
+//! with examples). Names in messages are quoted with backticks.
+
+use crate::span::Span;
+
+use super::Diagnostic;
+
+/// Every diagnostic code and what it means.
+pub const CODES: &[(&str, &str)] = &[
+    ("E0001", "characters that start no token"),
+    ("E0002", "unterminated block comment"),
+    ("E0003", "unclosed parenthesis or brace"),
+    ("E0004", "unmatched closing parenthesis or brace"),
+    ("E0005", "nesting deeper than the limit"),
+    ("E0006", "missing `;`"),
+    ("E0007", "unexpected token"),
+    ("E0008", "expected a definition"),
+    ("E0009", "the file is not UTF-8 text"),
+    ("E0010", "too many errors; the rest are not shown"),
+    ("E0099", "internal error of the parser (a bug in surfc)"),
+    ("E0101", "unknown name"),
+    ("E0102", "duplicate definition"),
+    ("E0103", "a built-in name redefined"),
+    ("E0104", "recursive definition"),
+    ("E0105", "duplicate parameter"),
+    ("E0201", "a patch used as a value"),
+    ("E0202", "a name of the wrong kind"),
+    (
+        "E0203",
+        "a function using x, y, z called where there are no coordinates",
+    ),
+    ("E0204", "x, y or z where there are no coordinates"),
+    ("E0205", "a surface's value where there are no coordinates"),
+    ("E0206", "a function used without calling it"),
+    ("E0207", "a call of something that is not a function"),
+    ("E0208", "a curve where a value is expected"),
+    ("E0209", "a tuple where a number is expected"),
+    ("E0301", "wrong number of arguments"),
+    ("E0302", "missing named argument"),
+    ("E0303", "unknown or misplaced named argument"),
+    ("E0304", "duplicate named argument"),
+    ("E0401", "a constant value that is infinite or not a number"),
+    ("E0402", "a number literal too large for f64"),
+    ("E0403", "a point with the wrong number of components"),
+    ("E0404", "a patch body that is not a 3-tuple"),
+    ("E0405", "an empty or inverted patch range"),
+    ("E0406", "a patch without exactly two parameters"),
+    (
+        "E0407",
+        "a circle with a non-positive radius or a zero normal",
+    ),
+    ("E0501", "unknown mesh option"),
+    ("E0502", "duplicate mesh option"),
+    ("E0503", "missing `step`"),
+    ("E0504", "non-positive `step`"),
+    ("E0505", "`max_triangles` that is not a positive integer"),
+    ("E0506", "a mesh with neither `start` nor `front`"),
+    ("E0507", "an empty or inverted `box`"),
+    ("E0508", "a mesh option with a value of the wrong shape"),
+    ("E0509", "meshes sharing a curve with different steps"),
+    ("E0510", "a patch meshed directly"),
+    ("W0001", "unused definition"),
+    ("W0002", "`start` ignored because `front` is given"),
+];
+
+fn or_list(items: &[&str]) -> String {
+    match items {
+        [] => String::new(),
+        [one] => one.to_string(),
+        [init @ .., last] => format!("{} or {}", init.join(", "), last),
+    }
+}
+
+fn found_words(text: &str) -> String {
+    if text.is_empty() {
+        "the end of the file".to_string()
+    } else {
+        format!("`{text}`")
+    }
+}
+
+// ---- syntax -------------------------------------------------------------------------------
+
+pub fn stray_characters(span: Span, text: &str) -> Diagnostic {
+    let what = if text.chars().count() == 1 {
+        format!("unexpected character `{text}`")
+    } else {
+        format!("unexpected characters `{text}`")
+    };
+    let mut d = Diagnostic::error("E0001", what).primary(span, "no token starts with this");
+    if text.contains('#') || text.contains('%') {
+        d = d.help("comments start with `//` or are enclosed in `/* */`");
+    } else {
+        d = d.note("a .surf file uses letters, digits, `_`, and `+ - * / ^ ( ) , : ; = { } .`");
+    }
+    d
+}
+
+pub fn unterminated_comment(span: Span) -> Diagnostic {
+    Diagnostic::error("E0002", "unterminated block comment")
+        .primary(span, "this comment is never closed")
+        .help("close it with `*/`")
+}
+
+pub fn unclosed_paren(opens: &[Span]) -> Diagnostic {
+    let mut d = Diagnostic::error("E0003", "unclosed `(`");
+    for &s in opens {
+        d = d.primary(s, "this `(` is never closed");
+    }
+    d.help("add the missing `)` before the end of the statement")
+}
+
+pub fn unclosed_brace(span: Span) -> Diagnostic {
+    Diagnostic::error("E0003", "unclosed `{`")
+        .primary(span, "this `{` is never closed")
+        .help("end the mesh block with `}`")
+}
+
+pub fn unmatched_close(span: Span, c: char) -> Diagnostic {
+    Diagnostic::error("E0004", format!("unmatched `{c}`"))
+        .primary(span, format!("this `{c}` closes nothing"))
+}
+
+pub fn nesting_too_deep(span: Span) -> Diagnostic {
+    Diagnostic::error("E0005", "expression nested too deeply")
+        .primary(span, "nesting goes deeper than surfc allows here")
+        .note(format!(
+            "at most {} nested parentheses and an expression depth of {} are allowed",
+            crate::syntax::limits::MAX_PAREN_DEPTH,
+            crate::syntax::limits::MAX_EXPR_DEPTH
+        ))
+        .help("split the expression with `fn` or `const` definitions")
+}
+
+/// What a statement is called in a syntax error.
+pub fn statement_context(keyword: &str, in_block: bool) -> &'static str {
+    match keyword {
+        "const" => "the constant definition",
+        "fn" => "the function definition",
+        "surface" => "the surface definition",
+        "patch" => "the patch definition",
+        "curve" => "the curve definition",
+        "mesh" if in_block => "the mesh option",
+        _ => "the mesh definition",
+    }
+}
+
+pub fn expected_semicolon(at: Span, found: Span, found_text: &str, context: &str) -> Diagnostic {
+    let mut d = Diagnostic::error("E0006", format!("expected `;` after {context}"))
+        .primary(at, "add `;` here");
+    if !found_text.is_empty() {
+        d = d.secondary(found, format!("found {} instead", found_words(found_text)));
+    }
+    d
+}
+
+pub fn expected_tokens(
+    found: Span,
+    found_text: &str,
+    expected: &[&str],
+    context: &str,
+    found_keyword: bool,
+) -> Diagnostic {
+    let list = or_list(expected);
+    let mut d = Diagnostic::error(
+        "E0007",
+        format!(
+            "expected {list} in {context}, found {}",
+            found_words(found_text)
+        ),
+    )
+    .primary(found, format!("expected {list}"));
+    if found_keyword {
+        d = d.note(format!(
+            "`{found_text}` is a keyword and cannot be used as a name"
+        ));
+    }
+    d
+}
+
+pub fn expected_statement(found: Span, found_text: &str, keywords: &[&str]) -> Diagnostic {
+    let list: Vec<String> = keywords.iter().map(|k| format!("`{k}`")).collect();
+    let list: Vec<&str> = list.iter().map(String::as_str).collect();
+    let d = Diagnostic::error(
+        "E0008",
+        format!("expected a definition, found {}", found_words(found_text)),
+    )
+    .primary(found, "a statement starts with a keyword")
+    .note(format!("the keywords are {}", or_list(&list)));
+    match crate::sema::suggest::nearest(found_text, keywords.iter().copied()) {
+        Some(k) => d.help(format!("did you mean `{k}`?")),
+        None => d,
+    }
+}
+
+pub fn not_utf8(offset: usize) -> Diagnostic {
+    Diagnostic::error("E0009", "the file is not UTF-8 text")
+        .primary(
+            Span::new(0, 0),
+            format!("the first invalid byte is at offset {offset}"),
+        )
+        .help("save the file as UTF-8")
+}
+
+pub fn suppressed(count: usize) -> Diagnostic {
+    Diagnostic::error("E0010", format!("{count} more errors not shown"))
+        .note("fix the errors above first")
+}
+
+pub fn internal_parse(span: Span) -> Diagnostic {
+    Diagnostic::error(
+        "E0099",
+        "internal error: the parse tree has an unexpected shape",
+    )
+    .primary(span, "while reading this")
+    .note("this is a bug in surfc; please report it with this file")
+}
+
+// ---- names --------------------------------------------------------------------------------
+
+pub fn unknown_name(span: Span, name: &str, suggestion: Option<&str>) -> Diagnostic {
+    let d =
+        Diagnostic::error("E0101", format!("unknown name `{name}`")).primary(span, "not defined");
+    match suggestion {
+        Some(s) => d.help(format!("did you mean `{s}`?")),
+        None => d,
+    }
+}
+
+pub fn unknown_function(span: Span, name: &str, suggestion: Option<&str>) -> Diagnostic {
+    let d = Diagnostic::error("E0101", format!("unknown function `{name}`"))
+        .primary(span, "no function of this name");
+    match suggestion {
+        Some(s) => d.help(format!("did you mean `{s}`?")),
+        None => d,
+    }
+}
+
+pub fn duplicate_definition(what: &str, name: &str, first: Span, second: Span) -> Diagnostic {
+    Diagnostic::error("E0102", format!("`{name}` is defined twice"))
+        .primary(second, format!("second definition of {what} `{name}`"))
+        .secondary(first, "first defined here")
+        .help("rename one of them")
+}
+
+pub fn reserved_name(span: Span, name: &str, what: &str) -> Diagnostic {
+    Diagnostic::error(
+        "E0103",
+        format!("`{name}` is {what} and cannot be redefined"),
+    )
+    .primary(span, "this name is taken by the language")
+    .help("choose another name")
+}
+
+/// `cycle`: (name, span of the name's definition, span where it uses the next).
+pub fn recursive_definition(cycle: &[(String, Span, Span)]) -> Diagnostic {
+    let names: Vec<String> = cycle.iter().map(|(n, _, _)| format!("`{n}`")).collect();
+    let mut chain = names.join(" → ");
+    if let Some(first) = names.first() {
+        chain.push_str(" → ");
+        chain.push_str(first);
+    }
+    let (first_name, first_def, _) = &cycle[0];
+    let mut d = Diagnostic::error(
+        "E0104",
+        format!("recursive definition: `{first_name}` depends on itself"),
+    )
+    .primary(*first_def, "defined in terms of itself");
+    for (i, (name, _, use_span)) in cycle.iter().enumerate() {
+        let next = &cycle[(i + 1) % cycle.len()].0;
+        d = d.secondary(*use_span, format!("`{name}` uses `{next}` here"));
+    }
+    d.note(format!("the cycle is {chain}"))
+        .help("definitions are expanded in place, so none may refer back to itself")
+}
+
+pub fn duplicate_parameter(name: &str, first: Span, second: Span) -> Diagnostic {
+    Diagnostic::error("E0105", format!("parameter `{name}` is declared twice"))
+        .primary(second, "second declaration")
+        .secondary(first, "first declared here")
+}
+
+// ---- kinds --------------------------------------------------------------------------------
+
+pub fn patch_as_value(span: Span, name: &str) -> Diagnostic {
+    Diagnostic::error("E0201", format!("patch `{name}` has no value"))
+        .primary(span, "a patch cannot be used as a number")
+        .help(format!(
+            "use its oriented distance `dist({name})`, or `offset({name}, d)`"
+        ))
+}
+
+/// A name of kind `found` where `expected` is needed, e.g. a surface where a curve is expected.
+pub fn wrong_kind(
+    span: Span,
+    name: &str,
+    found: &str,
+    expected: &str,
+    help: Option<String>,
+) -> Diagnostic {
+    Diagnostic::error(
+        "E0202",
+        format!("expected {expected}, but `{name}` is {found}"),
+    )
+    .primary(span, format!("this is {found}"))
+    .maybe_help(help)
+}
+
+pub fn coordinate_fn_without_coordinates(
+    span: Span,
+    name: &str,
+    place: &str,
+    def: Span,
+) -> Diagnostic {
+    Diagnostic::error(
+        "E0203",
+        format!("`{name}` uses x, y or z and cannot be called in {place}"),
+    )
+    .primary(span, format!("there are no coordinates in {place}"))
+    .secondary(def, format!("`{name}` is defined here"))
+    .help("call it from a surface, or pass the coordinates as parameters")
+}
+
+pub fn coordinate_without_coordinates(span: Span, axis: &str, place: &str) -> Diagnostic {
+    let d = Diagnostic::error("E0204", format!("`{axis}` cannot be used in {place}"))
+        .primary(span, format!("there are no coordinates in {place}"));
+    if place.starts_with("a patch") {
+        d.help("a patch is a function of its parameters; write it in terms of them")
+    } else {
+        d.help("a constant is computed once, before any point exists; use it in a surface instead")
+    }
+}
+
+pub fn surface_without_coordinates(span: Span, name: &str, place: &str) -> Diagnostic {
+    Diagnostic::error("E0205", format!("surface `{name}` has no value in {place}")).primary(
+        span,
+        format!("a surface's value needs x, y, z, which {place} lacks"),
+    )
+}
+
+pub fn fn_without_call(span: Span, name: &str, signature: &str) -> Diagnostic {
+    Diagnostic::error("E0206", format!("function `{name}` is used without a call"))
+        .primary(span, "a function is not a value")
+        .help(format!("call it: `{signature}`"))
+}
+
+pub fn not_callable(span: Span, name: &str, kind: &str) -> Diagnostic {
+    Diagnostic::error("E0207", format!("`{name}` is {kind}, not a function"))
+        .primary(span, "cannot be called")
+}
+
+pub fn curve_as_value(span: Span, what: &str) -> Diagnostic {
+    Diagnostic::error("E0208", format!("{what} is a curve, not a value"))
+        .primary(span, "a curve cannot be used in an expression")
+        .help("curves belong in `curve` definitions and in a mesh's `front:` and `bounds:`")
+}
+
+pub fn tuple_as_number(span: Span) -> Diagnostic {
+    Diagnostic::error("E0209", "a tuple where a number is expected")
+        .primary(span, "this is a tuple")
+        .note("tuples are points: `start:`, `box:`, `near:`, `center:`, `normal:` and patch bodies")
+}
+
+// ---- calls --------------------------------------------------------------------------------
+
+pub fn wrong_arity(
+    span: Span,
+    name: &str,
+    signature: &str,
+    expected: &str,
+    got: usize,
+) -> Diagnostic {
+    Diagnostic::error(
+        "E0301",
+        format!(
+            "`{name}` takes {expected}, but {got} {} given",
+            if got == 1 { "is" } else { "are" }
+        ),
+    )
+    .primary(
+        span,
+        format!("{got} argument{} given", if got == 1 { "" } else { "s" }),
+    )
+    .help(format!("the signature is `{signature}`"))
+}
+
+pub fn missing_named_argument(span: Span, callee: &str, arg: &str, signature: &str) -> Diagnostic {
+    Diagnostic::error(
+        "E0302",
+        format!("`{callee}` needs the named argument `{arg}`"),
+    )
+    .primary(span, format!("`{arg}:` is missing"))
+    .help(format!("the signature is `{signature}`"))
+}
+
+pub fn unexpected_named_argument(
+    span: Span,
+    callee: &str,
+    arg: &str,
+    signature: &str,
+) -> Diagnostic {
+    Diagnostic::error("E0303", format!("`{callee}` has no argument named `{arg}`"))
+        .primary(span, "not expected here")
+        .help(format!("the signature is `{signature}`"))
+}
+
+pub fn positional_where_named(span: Span, callee: &str, signature: &str) -> Diagnostic {
+    Diagnostic::error("E0303", format!("`{callee}` takes named arguments only"))
+        .primary(span, "this argument has no name")
+        .help(format!("the signature is `{signature}`"))
+}
+
+pub fn duplicate_named_argument(arg: &str, first: Span, second: Span) -> Diagnostic {
+    Diagnostic::error("E0304", format!("argument `{arg}` is given twice"))
+        .primary(second, "given again here")
+        .secondary(first, "first given here")
+}
+
+// ---- values -------------------------------------------------------------------------------
+
+pub fn not_finite(span: Span, what: &str, value: f64) -> Diagnostic {
+    let v = if value.is_nan() {
+        "not a number (NaN)".to_string()
+    } else {
+        format!("{}infinite", if value < 0.0 { "negative " } else { "" })
+    };
+    Diagnostic::error("E0401", format!("{what} is {v}"))
+        .primary(span, format!("evaluates to {value}"))
+        .help("check for a division by zero, a logarithm of zero or a number too large")
+}
+
+pub fn literal_too_large(span: Span) -> Diagnostic {
+    Diagnostic::error("E0402", "number literal too large")
+        .primary(span, "exceeds the largest f64 (about 1.8e308)")
+}
+
+pub fn wrong_point_arity(span: Span, got: usize) -> Diagnostic {
+    Diagnostic::error("E0403", format!("a point has 3 components, this has {got}"))
+        .primary(
+            span,
+            format!("{got} component{}", if got == 1 { "" } else { "s" }),
+        )
+        .help("write a point as `(x, y, z)`")
+}
+
+pub fn patch_body_not_triple(span: Span, got: Option<usize>) -> Diagnostic {
+    let label = match got {
+        Some(n) => format!("a tuple of {n} components"),
+        None => "not a tuple".to_string(),
+    };
+    Diagnostic::error("E0404", "a patch body must be a point `(X, Y, Z)`")
+        .primary(span, label)
+        .help("write the patch as `patch P(u: 0..1, v: 0..1) = (X, Y, Z);`")
+}
+
+pub fn inverted_range(span: Span, param: &str, lo: f64, hi: f64) -> Diagnostic {
+    let what = if lo == hi { "empty" } else { "inverted" };
+    Diagnostic::error(
+        "E0405",
+        format!("the range of `{param}` is {what}: {lo}..{hi}"),
+    )
+    .primary(span, "the lower bound must be less than the upper")
+    .maybe_help((lo > hi).then(|| format!("swap the bounds: `{hi}..{lo}`")))
+}
+
+pub fn patch_param_count(span: Span, got: usize) -> Diagnostic {
+    Diagnostic::error(
+        "E0406",
+        format!("a patch has exactly two parameters, this has {got}"),
+    )
+    .primary(span, "parameters declared here")
+    .help("write `patch P(u: 0..1, v: 0..1) = (X, Y, Z);`")
+}
+
+pub fn bad_circle(span: Span, what: &str) -> Diagnostic {
+    Diagnostic::error("E0407", format!("invalid circle: {what}")).primary(span, what.to_string())
+}
+
+// ---- meshes -------------------------------------------------------------------------------
+
+pub fn unknown_mesh_option(span: Span, name: &str, suggestion: Option<&str>) -> Diagnostic {
+    let d = Diagnostic::error("E0501", format!("unknown mesh option `{name}`"))
+        .primary(span, "not a mesh option")
+        .note("the options are `step`, `start`, `box`, `front`, `bounds` and `max_triangles`");
+    match suggestion {
+        Some(s) => d.help(format!("did you mean `{s}`?")),
+        None => d,
+    }
+}
+
+pub fn duplicate_mesh_option(name: &str, first: Span, second: Span) -> Diagnostic {
+    Diagnostic::error("E0502", format!("mesh option `{name}` is given twice"))
+        .primary(second, "given again here")
+        .secondary(first, "first given here")
+        .help("remove one of them")
+}
+
+pub fn missing_step(span: Span, mesh: &str) -> Diagnostic {
+    Diagnostic::error("E0503", format!("mesh `{mesh}` has no `step`"))
+        .primary(span, "`step:` is required")
+        .help("add the triangles' edge length, e.g. `step: 0.1;` (about 1/30 of the model's size)")
+}
+
+pub fn non_positive_step(span: Span, value: f64) -> Diagnostic {
+    Diagnostic::error("E0504", format!("`step` must be positive, it is {value}"))
+        .primary(span, "the step is the edge length of the triangles")
+}
+
+pub fn bad_max_triangles(span: Span, value: f64) -> Diagnostic {
+    Diagnostic::error(
+        "E0505",
+        format!("`max_triangles` must be a positive whole number, it is {value}"),
+    )
+    .primary(span, "not a positive whole number")
+}
+
+pub fn no_start(span: Span, mesh: &str) -> Diagnostic {
+    Diagnostic::error(
+        "E0506",
+        format!("mesh `{mesh}` has neither `start` nor `front`"),
+    )
+    .primary(span, "the marcher needs somewhere to begin")
+    .help("add `start: (x, y, z);` near the surface, or `front: CURVE;`")
+}
+
+pub fn bad_box(span: Span, axis: &str, lo: f64, hi: f64) -> Diagnostic {
+    let what = if lo == hi { "empty" } else { "inverted" };
+    Diagnostic::error(
+        "E0507",
+        format!("the box is {what} along {axis}: {lo} .. {hi}"),
+    )
+    .primary(
+        span,
+        "each component of the first corner must be less than the second's",
+    )
+    .help("write `box: (xmin, ymin, zmin) .. (xmax, ymax, zmax);`")
+}
+
+pub fn option_shape(span: Span, option: &str, expected: &str) -> Diagnostic {
+    Diagnostic::error(
+        "E0508",
+        format!("mesh option `{option}` expects {expected}"),
+    )
+    .primary(span, format!("expected {expected}"))
+}
+
+pub fn shared_curve_steps(
+    curve: &str,
+    first: (&str, f64, Span),
+    second: (&str, f64, Span),
+) -> Diagnostic {
+    Diagnostic::error(
+        "E0509",
+        format!(
+            "meshes `{}` and `{}` share curve `{curve}` with different steps",
+            first.0, second.0
+        ),
+    )
+    .primary(
+        second.2,
+        format!("`{}` samples it at step {}", second.0, second.1),
+    )
+    .secondary(
+        first.2,
+        format!("`{}` samples it at step {}", first.0, first.1),
+    )
+    .note("meshes that share a curve share its polygon, which is sampled at the mesh's step")
+    .help("give both meshes the same `step`")
+}
+
+pub fn patch_meshed(span: Span, name: &str) -> Diagnostic {
+    Diagnostic::error("E0510", format!("patch `{name}` cannot be meshed directly"))
+        .primary(span, "the marcher meshes implicit surfaces")
+        .help(format!("mesh its implicitization: `dist({name})`"))
+}
+
+// ---- warnings -----------------------------------------------------------------------------
+
+pub fn unused(span: Span, what: &str, name: &str) -> Diagnostic {
+    Diagnostic::warning("W0001", format!("{what} `{name}` is never used"))
+        .primary(span, "defined here")
+        .help(format!("remove it, or prefix its name with `_` to keep it"))
+}
+
+pub fn start_ignored(start: Span, front: Span) -> Diagnostic {
+    Diagnostic::warning("W0002", "`start` is ignored when `front` is given")
+        .primary(start, "ignored")
+        .secondary(front, "the front polygon is where meshing begins")
+}

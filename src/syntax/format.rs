@@ -1,0 +1,254 @@
+//! The canonical formatting of an AST (`surfc fmt`): one statement per line, mesh options one
+//! per line indented by four spaces, spaces around `+ - * /` and none around `^`, only the
+//! parentheses that precedence needs, numbers as written. Comments are kept: a comment on a
+//! line of its own stays before the statement or mesh option that follows it, a comment after
+//! code on the same line stays at the end of that line, and a comment written inside an
+//! expression moves to the line before its statement (or mesh option). Empty lines between
+//! statements are kept (at most one). Long lines are not wrapped.
+
+use crate::span::Span;
+
+use super::ast::*;
+
+/// Formats a file canonically. `parse(format(f))` has the same AST as `f` (spans aside), and
+/// formatting is idempotent.
+pub fn format(file: &File) -> String {
+    let mut out = String::new();
+    let mut comments: Vec<&Comment> = file.comments.iter().collect();
+    comments.sort_by_key(|c| c.span.start);
+    let entries: Vec<Span> = file.items.iter().map(|i| i.span).collect();
+    // Comments inside a mesh block are placed by the block itself.
+    let (inside_mesh, top): (Vec<&Comment>, Vec<&Comment>) = comments.iter().partition(|c| {
+        file.items.iter().any(|i| {
+            matches!(i.kind, ItemKind::Mesh { .. })
+                && c.span.start > i.span.start
+                && c.span.end <= i.span.end
+        })
+    });
+    let placed = assign(&top, &entries);
+    for (k, item) in file.items.iter().enumerate() {
+        for (n, c) in placed.leading[k].iter().enumerate() {
+            let inside = c.span.start >= item.span.start;
+            if !out.is_empty() && c.blank_line_before && !inside && n == 0 {
+                out.push('\n');
+            }
+            out.push_str(&c.text);
+            out.push('\n');
+        }
+        if !out.is_empty() && item.blank_line_before && !out.ends_with("\n\n") {
+            out.push('\n');
+        }
+        let mine: Vec<&Comment> = inside_mesh
+            .iter()
+            .copied()
+            .filter(|c| c.span.start > item.span.start && c.span.end <= item.span.end)
+            .collect();
+        out.push_str(&item_text(item, &mine));
+        for c in &placed.trailing[k] {
+            out.push(' ');
+            out.push_str(&c.text);
+        }
+        out.push('\n');
+    }
+    for (n, c) in placed.footer.iter().enumerate() {
+        if !out.is_empty() && c.blank_line_before && n == 0 {
+            out.push('\n');
+        }
+        out.push_str(&c.text);
+        out.push('\n');
+    }
+    out
+}
+
+struct Placed<'c> {
+    leading: Vec<Vec<&'c Comment>>,
+    trailing: Vec<Vec<&'c Comment>>,
+    footer: Vec<&'c Comment>,
+}
+
+/// Attaches each comment to an entry: inside an entry → before it; after an entry on the same
+/// line → at the end of its line; otherwise before the next entry, or in the footer.
+fn assign<'c>(comments: &[&'c Comment], entries: &[Span]) -> Placed<'c> {
+    let mut placed = Placed {
+        leading: vec![Vec::new(); entries.len()],
+        trailing: vec![Vec::new(); entries.len()],
+        footer: Vec::new(),
+    };
+    for &c in comments {
+        let inside = entries
+            .iter()
+            .position(|e| c.span.start >= e.start && c.span.start < e.end);
+        if let Some(k) = inside {
+            placed.leading[k].push(c);
+            continue;
+        }
+        let prev = entries.iter().rposition(|e| e.end <= c.span.start);
+        let next = entries.iter().position(|e| e.start >= c.span.end);
+        match (prev, next) {
+            (Some(p), _) if !c.own_line => placed.trailing[p].push(c),
+            (_, Some(n)) => placed.leading[n].push(c),
+            _ => placed.footer.push(c),
+        }
+    }
+    placed
+}
+
+fn item_text(item: &Item, comments: &[&Comment]) -> String {
+    match &item.kind {
+        ItemKind::Const { name, value } => format!("const {} = {};", name.name, expr(value)),
+        ItemKind::Surface { name, body } => format!("surface {} = {};", name.name, expr(body)),
+        ItemKind::Curve { name, value } => format!("curve {} = {};", name.name, expr(value)),
+        ItemKind::Fn { name, params, body } => {
+            let ps: Vec<&str> = params.iter().map(|p| p.name.as_str()).collect();
+            format!("fn {}({}) = {};", name.name, ps.join(", "), expr(body))
+        }
+        ItemKind::Patch { name, params, body } => {
+            let ps: Vec<String> = params
+                .iter()
+                .map(|p| format!("{}: {}..{}", p.name.name, expr(&p.lo), expr(&p.hi)))
+                .collect();
+            format!("patch {}({}) = {};", name.name, ps.join(", "), expr(body))
+        }
+        ItemKind::Mesh {
+            name,
+            surface,
+            options,
+            close,
+        } => {
+            // Entry 0 is the header (up to the surface expression), then the options.
+            let mut entries = vec![Span::new(
+                item.span.start as usize,
+                surface.span.end as usize,
+            )];
+            entries.extend(options.iter().map(|o| o.span));
+            let inner: Vec<&Comment> = comments
+                .iter()
+                .copied()
+                .filter(|c| c.span.start < close.start)
+                .collect();
+            let placed = assign(&inner, &entries);
+            let mut s = String::new();
+            for c in &placed.leading[0] {
+                s.push_str(&c.text);
+                s.push('\n');
+            }
+            s.push_str(&format!("mesh {} = {} {{", name.name, expr(surface)));
+            for c in &placed.trailing[0] {
+                s.push(' ');
+                s.push_str(&c.text);
+            }
+            s.push('\n');
+            for (k, o) in options.iter().enumerate() {
+                for c in &placed.leading[k + 1] {
+                    s.push_str("    ");
+                    s.push_str(&c.text);
+                    s.push('\n');
+                }
+                let values: Vec<String> = o
+                    .values
+                    .iter()
+                    .map(|v| match v {
+                        OptionValue::Expr(e) => expr(e),
+                        OptionValue::Range(a, b, _) => format!("{} .. {}", expr(a), expr(b)),
+                    })
+                    .collect();
+                s.push_str(&format!("    {}: {};", o.name.name, values.join(", ")));
+                for c in &placed.trailing[k + 1] {
+                    s.push(' ');
+                    s.push_str(&c.text);
+                }
+                s.push('\n');
+            }
+            for c in &placed.footer {
+                s.push_str("    ");
+                s.push_str(&c.text);
+                s.push('\n');
+            }
+            s.push('}');
+            s
+        }
+    }
+}
+
+/// Binding strength: what an operand position requires of the expression put there.
+const SUM: u8 = 1;
+const PRODUCT: u8 = 2;
+const UNARY: u8 = 3;
+const POWER: u8 = 4;
+const ATOM: u8 = 5;
+
+fn precedence(e: &Expr) -> u8 {
+    match &e.kind {
+        ExprKind::Binary(BinOp::Add | BinOp::Sub, ..) => SUM,
+        ExprKind::Binary(BinOp::Mul | BinOp::Div, ..) => PRODUCT,
+        ExprKind::Neg(_) => UNARY,
+        ExprKind::Binary(BinOp::Pow, ..) => POWER,
+        _ => ATOM,
+    }
+}
+
+/// Formats an expression (the depth of the tree is bounded by the parser).
+pub fn expr(e: &Expr) -> String {
+    let mut s = String::new();
+    write_expr(&mut s, e, 0);
+    s
+}
+
+fn write_expr(s: &mut String, e: &Expr, need: u8) {
+    let paren = precedence(e) < need;
+    if paren {
+        s.push('(');
+    }
+    match &e.kind {
+        ExprKind::Number { text, .. } => s.push_str(text),
+        ExprKind::Name(n) => s.push_str(n),
+        ExprKind::Neg(inner) => {
+            s.push('-');
+            write_expr(s, inner, UNARY);
+        }
+        ExprKind::Binary(op, l, r) => {
+            let (left_need, right_need) = match op {
+                BinOp::Add | BinOp::Sub => (SUM, PRODUCT),
+                BinOp::Mul | BinOp::Div => (PRODUCT, UNARY),
+                BinOp::Pow => (ATOM, UNARY),
+            };
+            write_expr(s, l, left_need);
+            if *op == BinOp::Pow {
+                s.push('^');
+            } else {
+                s.push(' ');
+                s.push_str(op.symbol());
+                s.push(' ');
+            }
+            write_expr(s, r, right_need);
+        }
+        ExprKind::Call { callee, args } => {
+            s.push_str(&callee.name);
+            s.push('(');
+            for (k, a) in args.iter().enumerate() {
+                if k > 0 {
+                    s.push_str(", ");
+                }
+                if let Some(n) = &a.name {
+                    s.push_str(&n.name);
+                    s.push_str(": ");
+                }
+                write_expr(s, &a.value, 0);
+            }
+            s.push(')');
+        }
+        ExprKind::Tuple(parts) => {
+            s.push('(');
+            for (k, p) in parts.iter().enumerate() {
+                if k > 0 {
+                    s.push_str(", ");
+                }
+                write_expr(s, p, 0);
+            }
+            s.push(')');
+        }
+    }
+    if paren {
+        s.push(')');
+    }
+}
