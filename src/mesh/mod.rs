@@ -2,6 +2,10 @@
 //! oriented so that their normals agree with ∇f. Topology and quality reports and the file
 //! writers live in submodules and see meshes only through this type.
 
+pub mod check;
+pub mod quality;
+pub mod topology;
+
 use glam::DVec3;
 
 /// A triangle mesh of one surface.

@@ -1,0 +1,772 @@
+//! The state of one triangulation and the paper's Steps 0–4 over it.
+//!
+//! Invariants: every live front ring walks counter-clockwise (seen from ∇f) around the meshed
+//! area, i.e. the area still to be meshed lies to its right; the front angle of a live,
+//! non-border node is up to date (recomputed whenever a neighbour changes — the paper's
+//! angle_changed — with a version bump that invalidates older heap entries); the spatial hash
+//! holds exactly the live nodes that take part in distance checks.
+
+use std::cmp::Reverse;
+use std::collections::{BTreeMap, BinaryHeap};
+
+use glam::DVec3;
+
+use super::angle::{ccw, front_angle, polar, triangle_count};
+use super::hash::SpatialHash;
+use super::ring::{FrontId, NodeId, PointId, Rings};
+use super::settings::MarchSettings;
+use super::{MarchError, MarchInput, PolygonRole, Start};
+use crate::mesh::Mesh;
+use crate::solve::{SurfacePoint, surface_point, tangent_frame};
+use crate::surface::Surface;
+
+/// Splits and unions add no triangle but retire at least two nodes from distance checks, so
+/// their number is bounded; this guards against a bug turning that into a hang.
+const MAX_STEPS_WITHOUT_TRIANGLE: u64 = 1_000_000;
+
+type HeapEntry = Reverse<(u64, u32, u32)>;
+
+pub(super) fn run(
+    surface: &mut dyn Surface,
+    input: &MarchInput,
+    settings: &MarchSettings,
+) -> Result<Mesh, MarchError> {
+    let step = input.step;
+    if !(step.is_finite() && step > 0.0) {
+        return Err(MarchError::InvalidStep { step });
+    }
+    if let Some((lo, hi)) = input.bbox {
+        if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
+            return Err(MarchError::InvalidBox { lo, hi });
+        }
+    }
+    let trace = std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0");
+    let mut m = Marcher {
+        surface,
+        s: *settings,
+        step,
+        bbox: input.bbox,
+        max_triangles: input.max_triangles.unwrap_or(settings.max_triangles),
+        trace,
+        pos: Vec::new(),
+        normal: Vec::new(),
+        t1: Vec::new(),
+        t2: Vec::new(),
+        border: Vec::new(),
+        triangles: Vec::new(),
+        rings: Rings::default(),
+        angle: Vec::new(),
+        version: Vec::new(),
+        checkable: Vec::new(),
+        pending_flag: Vec::new(),
+        heaps: Vec::new(),
+        passive: Vec::new(),
+        hash: SpatialHash::new(settings.near_distance * step),
+        pending: Vec::new(),
+        scratch: Vec::new(),
+    };
+    let actual = match &input.start {
+        Start::Point(s) => m.hexagon(*s)?,
+        Start::Front(poly) => {
+            let mut seen = BTreeMap::new();
+            let f = m.polygon(poly, PolygonRole::Front, &mut seen)?;
+            for (i, b) in input.bounds.iter().enumerate() {
+                let g = m.polygon(b, PolygonRole::Bound(i), &mut seen)?;
+                m.passive.push(g);
+            }
+            f
+        }
+    };
+    if let Start::Point(_) = input.start {
+        let mut seen = BTreeMap::new();
+        for (i, b) in input.bounds.iter().enumerate() {
+            let g = m.polygon(b, PolygonRole::Bound(i), &mut seen)?;
+            m.passive.push(g);
+        }
+    }
+    // Bounds were pushed in input order; the first given is tried first when the actual
+    // front is done.
+    m.passive.reverse();
+    m.march(actual)?;
+    Ok(Mesh {
+        vertices: m.pos,
+        normals: m.normal,
+        triangles: m.triangles,
+    })
+}
+
+struct Marcher<'s> {
+    surface: &'s mut dyn Surface,
+    s: MarchSettings,
+    step: f64,
+    bbox: Option<(DVec3, DVec3)>,
+    max_triangles: u64,
+    trace: bool,
+    // Points (= mesh vertices).
+    pos: Vec<DVec3>,
+    normal: Vec<DVec3>,
+    t1: Vec<DVec3>,
+    t2: Vec<DVec3>,
+    /// The paper's border_point: on the box, never completed nor distance-checked.
+    border: Vec<bool>,
+    triangles: Vec<[u32; 3]>,
+    rings: Rings,
+    // Per node.
+    angle: Vec<f64>,
+    version: Vec<u32>,
+    /// In the spatial hash (takes part in distance checks).
+    checkable: Vec<bool>,
+    pending_flag: Vec<bool>,
+    /// Per front: (front angle bits, node, version), smallest first.
+    heaps: Vec<BinaryHeap<HeapEntry>>,
+    /// Fronts waiting to become the actual front (bounds and split-off parts); last first.
+    passive: Vec<FrontId>,
+    hash: SpatialHash,
+    /// Nodes to distance-check (new or changed).
+    pending: Vec<NodeId>,
+    scratch: Vec<(NodeId, DVec3)>,
+}
+
+impl Marcher<'_> {
+    fn p(&self, n: NodeId) -> DVec3 {
+        self.pos[self.rings.point(n).index()]
+    }
+
+    fn add_point(&mut self, sp: SurfacePoint, border: bool) -> PointId {
+        let id = PointId(self.pos.len() as u32);
+        self.pos.push(sp.point);
+        self.normal.push(sp.normal);
+        self.t1.push(sp.t1);
+        self.t2.push(sp.t2);
+        self.border.push(border);
+        id
+    }
+
+    fn add_triangle(&mut self, a: PointId, b: PointId, c: PointId) {
+        if a != b && b != c && a != c {
+            self.triangles.push([a.0, b.0, c.0]);
+        }
+    }
+
+    /// Brings per-node and per-front arrays up to the rings' size; new nodes enter the hash
+    /// (unless border points) and the pending list.
+    fn grow(&mut self) {
+        let old = self.angle.len();
+        let n = self.rings.node_count();
+        self.angle.resize(n, f64::NAN);
+        self.version.resize(n, 0);
+        self.checkable.resize(n, false);
+        self.pending_flag.resize(n, false);
+        for i in old..n {
+            let node = NodeId(i as u32);
+            if !self.border[self.rings.point(node).index()] {
+                self.checkable[i] = true;
+                self.hash.insert(node, self.p(node));
+                self.mark_pending(node);
+            }
+        }
+    }
+
+    fn ensure_heap(&mut self, f: FrontId) {
+        while self.heaps.len() <= f.index() {
+            self.heaps.push(BinaryHeap::new());
+        }
+    }
+
+    fn mark_pending(&mut self, n: NodeId) {
+        if !self.pending_flag[n.index()] {
+            self.pending_flag[n.index()] = true;
+            self.pending.push(n);
+        }
+    }
+
+    /// Takes a node out of distance checks (the paper: "must not be involved in later
+    /// distance checks"), or out of everything when it dies.
+    fn uncheck(&mut self, n: NodeId) {
+        if self.checkable[n.index()] {
+            self.checkable[n.index()] = false;
+            self.hash.remove(n, self.p(n));
+        }
+    }
+
+    /// Step 1 for one node: recompute its front angle and queue it in its front's heap.
+    fn update_angle(&mut self, n: NodeId) {
+        let pi = self.rings.point(n).index();
+        if self.border[pi] || !self.rings.alive(n) {
+            return;
+        }
+        let (v1, v2) = (self.p(self.rings.prev(n)), self.p(self.rings.next(n)));
+        let w = front_angle(self.pos[pi], self.t1[pi], self.t2[pi], v1, v2);
+        self.angle[n.index()] = w;
+        self.version[n.index()] += 1;
+        let f = self.rings.front(n);
+        self.ensure_heap(f);
+        self.heaps[f.index()].push(Reverse((w.to_bits(), n.0, self.version[n.index()])));
+    }
+
+    /// The live non-border node of smallest front angle of front `f`.
+    fn peek_min(&mut self, f: FrontId) -> Option<NodeId> {
+        self.ensure_heap(f);
+        while let Some(&Reverse((_, n, v))) = self.heaps[f.index()].peek() {
+            let node = NodeId(n);
+            if self.rings.alive(node) && self.rings.front(node) == f && self.version[n as usize] == v
+            {
+                return Some(node);
+            }
+            self.heaps[f.index()].pop();
+        }
+        None
+    }
+
+    fn inside(&self, p: DVec3) -> bool {
+        match self.bbox {
+            Some((lo, hi)) => p.cmpge(lo).all() && p.cmple(hi).all(),
+            None => true,
+        }
+    }
+
+    /// Step 0: the surface point of `s` and the hexagon around it; returns the first front.
+    fn hexagon(&mut self, s: DVec3) -> Result<FrontId, MarchError> {
+        let sp = surface_point(self.surface, s, self.step, &self.s.surface_point)
+            .map_err(|source| MarchError::Start { start: s, source })?;
+        if !self.inside(sp.point) {
+            return Err(MarchError::StartOutsideBox { at: sp.point });
+        }
+        let c = self.add_point(sp, false);
+        let mut ring = Vec::with_capacity(6);
+        for i in 0..6 {
+            let w = i as f64 * std::f64::consts::FRAC_PI_3;
+            let q = sp.point + self.step * (w.cos() * sp.t1 + w.sin() * sp.t2);
+            ring.push(self.new_point(sp.point, q)?);
+        }
+        for i in 0..6 {
+            self.add_triangle(c, ring[i], ring[(i + 1) % 6]);
+        }
+        if self.trace {
+            eprintln!("march: start {} → {} step {}", s, sp.point, self.step);
+        }
+        let (f, nodes) = self.rings.make_ring(&ring);
+        self.grow();
+        for n in nodes {
+            self.update_angle(n);
+        }
+        Ok(f)
+    }
+
+    /// A given polygon (area to mesh on its left) as a front ring (area to mesh on its
+    /// right, so walked backwards). Vertices are kept bit-identical; `seen` merges vertices
+    /// shared with polygons given before.
+    fn polygon(
+        &mut self,
+        poly: &[DVec3],
+        role: PolygonRole,
+        seen: &mut BTreeMap<[u64; 3], PointId>,
+    ) -> Result<FrontId, MarchError> {
+        let n = poly.len();
+        if n < 3 {
+            return Err(MarchError::PolygonTooShort {
+                polygon: role,
+                len: n,
+            });
+        }
+        let (min, max) = (
+            self.s.polygon_edge_min * self.step,
+            self.s.polygon_edge_max * self.step,
+        );
+        let mut ids = Vec::with_capacity(n);
+        for (i, &p) in poly.iter().enumerate() {
+            let length = p.distance(poly[(i + 1) % n]);
+            if !(length >= min && length <= max) {
+                return Err(MarchError::PolygonSpacing {
+                    polygon: role,
+                    index: i,
+                    at: p,
+                    length,
+                    step: self.step,
+                    min,
+                    max,
+                });
+            }
+            let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+            if let Some(&id) = seen.get(&key) {
+                ids.push(id);
+                continue;
+            }
+            let vg = self.surface.value_gradient(p);
+            let g = vg.gradient;
+            let gl = g.length();
+            if !(gl > 0.0 && gl.is_finite() && vg.value.is_finite()) {
+                return Err(MarchError::PolygonGradient {
+                    polygon: role,
+                    index: i,
+                    at: p,
+                });
+            }
+            let distance = vg.value.abs() / gl;
+            if distance > self.s.polygon_on_surface * self.step {
+                return Err(MarchError::PolygonOffSurface {
+                    polygon: role,
+                    index: i,
+                    at: p,
+                    distance,
+                });
+            }
+            let normal = g / gl;
+            let (t1, t2) = tangent_frame(normal);
+            let id = self.add_point(
+                SurfacePoint {
+                    point: p,
+                    normal,
+                    t1,
+                    t2,
+                },
+                false,
+            );
+            seen.insert(key, id);
+            ids.push(id);
+        }
+        ids.reverse();
+        let (f, nodes) = self.rings.make_ring(&ids);
+        self.ensure_heap(f);
+        self.grow();
+        for n in nodes {
+            self.update_angle(n);
+        }
+        Ok(f)
+    }
+
+    /// A new point for the start point of chord `from → q`: surfacepoint of q, or, if the
+    /// chord or its surface point leaves the box, a border point where the chord meets it.
+    fn new_point(&mut self, from: DVec3, q: DVec3) -> Result<PointId, MarchError> {
+        if !self.inside(q) {
+            return self.border_point(from, q);
+        }
+        let sp = surface_point(self.surface, q, self.step, &self.s.surface_point)
+            .map_err(|source| MarchError::NewPoint { near: q, source })?;
+        if !self.inside(sp.point) {
+            return self.border_point(from, sp.point);
+        }
+        Ok(self.add_point(sp, false))
+    }
+
+    /// The chord from → q (from inside, q outside the box) truncated at the box, then moved
+    /// onto the surface within the box face it hit (Newton along the gradient projected into
+    /// the face), so that border points lie on the box.
+    fn border_point(&mut self, from: DVec3, q: DVec3) -> Result<PointId, MarchError> {
+        let Some((lo, hi)) = self.bbox else {
+            unreachable!("border points exist only with a box")
+        };
+        let d = q - from;
+        let (mut t, mut axis, mut value) = (1.0f64, 0usize, 0.0);
+        for k in 0..3 {
+            let bound = if d[k] > 0.0 && q[k] > hi[k] {
+                hi[k]
+            } else if d[k] < 0.0 && q[k] < lo[k] {
+                lo[k]
+            } else {
+                continue;
+            };
+            let tk = ((bound - from[k]) / d[k]).clamp(0.0, 1.0);
+            if tk < t {
+                (t, axis, value) = (tk, k, bound);
+            }
+        }
+        let mut u = from + t * d;
+        u[axis] = value;
+        let start = u;
+        let tol = self.s.surface_point.relative_step * self.step;
+        let mut converged = false;
+        for _ in 0..self.s.surface_point.max_iterations {
+            let vg = self.surface.value_gradient(u);
+            let mut g = vg.gradient;
+            g[axis] = 0.0;
+            let g2 = g.length_squared();
+            if !(g2 > 0.0 && g2.is_finite() && vg.value.is_finite()) {
+                break;
+            }
+            let delta = g * (vg.value / g2);
+            if delta.length() > self.step {
+                // The surface runs nearly parallel to the face here: give up on the face.
+                break;
+            }
+            u -= delta;
+            u[axis] = value;
+            if delta.length() <= tol.max(8.0 * f64::EPSILON * u.abs().max_element()) {
+                converged = true;
+                break;
+            }
+        }
+        let sp = if converged && self.inside_loose(u) {
+            let vg = self.surface.value_gradient(u);
+            let normal = vg.gradient.normalize_or_zero();
+            let (t1, t2) = tangent_frame(normal);
+            SurfacePoint {
+                point: u,
+                normal,
+                t1,
+                t2,
+            }
+        } else {
+            surface_point(self.surface, start, self.step, &self.s.surface_point)
+                .map_err(|source| MarchError::NewPoint {
+                    near: start,
+                    source,
+                })?
+        };
+        if self.trace {
+            eprintln!("march: border point {} (face axis {axis})", sp.point);
+        }
+        Ok(self.add_point(sp, true))
+    }
+
+    /// Inside the box up to rounding of the face coordinate.
+    fn inside_loose(&self, p: DVec3) -> bool {
+        match self.bbox {
+            Some((lo, hi)) => {
+                let eps = 1e-12 * self.step;
+                p.cmpge(lo - eps).all() && p.cmple(hi + eps).all()
+            }
+            None => true,
+        }
+    }
+
+    /// Steps 1–4 until no front is left.
+    fn march(&mut self, first: FrontId) -> Result<(), MarchError> {
+        let mut actual = first;
+        let mut idle: u64 = 0;
+        loop {
+            let Some(m) = self.peek_min(actual) else {
+                // Step 4: this front is done (only border points left); take the next one.
+                self.retire(actual);
+                match self.next_front() {
+                    Some(f) => {
+                        actual = f;
+                        continue;
+                    }
+                    None => return Ok(()),
+                }
+            };
+            let last_at = self.p(m);
+            if self.rings.len(actual) <= 3 {
+                let (a, b) = (self.rings.prev(m), self.rings.next(m));
+                if self.rings.len(actual) == 3 {
+                    let (pa, pb, pm) = (
+                        self.rings.point(a),
+                        self.rings.point(b),
+                        self.rings.point(m),
+                    );
+                    self.add_triangle(pa, pb, pm);
+                    if self.trace {
+                        eprintln!("march: close front {} with a triangle at {}", actual.0, last_at);
+                    }
+                }
+                self.retire(actual);
+                match self.next_front() {
+                    Some(f) => {
+                        actual = f;
+                        continue;
+                    }
+                    None => return Ok(()),
+                }
+            }
+            // Remark 2: small angles first, distance checks (Step 2) only then.
+            if self.angle[m.index()] >= self.s.small_angle {
+                if let Some(f) = self.distance_checks(actual)? {
+                    actual = f;
+                    idle += 1;
+                    if idle > MAX_STEPS_WITHOUT_TRIANGLE {
+                        return Err(MarchError::Stalled {
+                            at: last_at,
+                            iterations: idle,
+                        });
+                    }
+                    continue;
+                }
+            }
+            self.complete(m)?;
+            idle = 0;
+            if self.triangles.len() as u64 > self.max_triangles {
+                return Err(MarchError::TooManyTriangles {
+                    limit: self.max_triangles,
+                    at: last_at,
+                });
+            }
+        }
+    }
+
+    fn retire(&mut self, f: FrontId) {
+        for n in self.rings.walk(f) {
+            self.uncheck(n);
+        }
+        self.rings.clear(f);
+    }
+
+    fn next_front(&mut self) -> Option<FrontId> {
+        while let Some(f) = self.passive.pop() {
+            if self.rings.len(f) == 0 {
+                continue;
+            }
+            if self.trace {
+                eprintln!("march: front {} becomes actual ({} points)", f.0, self.rings.len(f));
+            }
+            for n in self.rings.walk(f) {
+                if self.checkable[n.index()] {
+                    self.mark_pending(n);
+                }
+            }
+            return Some(f);
+        }
+        None
+    }
+
+    /// Step 2 over the nodes that are new or changed. Splits or unites at the first near
+    /// pair found and returns the new actual front.
+    fn distance_checks(&mut self, actual: FrontId) -> Result<Option<FrontId>, MarchError> {
+        while let Some(a) = self.pending.pop() {
+            self.pending_flag[a.index()] = false;
+            if !self.rings.alive(a) || !self.checkable[a.index()] || self.rings.front(a) != actual
+            {
+                continue;
+            }
+            let Some(b) = self.near_partner(a) else {
+                continue;
+            };
+            return if self.rings.front(b) == actual {
+                Ok(Some(self.split(a, b)))
+            } else {
+                self.unite(a, b).map(Some)
+            };
+        }
+        Ok(None)
+    }
+
+    /// The nearest node b that is near a in the sense of Step 2: closer than the near
+    /// distance, not a or its (second) neighbour, normals agreeing, and each inside the
+    /// other's front angle (Remark 3: otherwise the two are separated by meshed area).
+    fn near_partner(&mut self, a: NodeId) -> Option<NodeId> {
+        let pa_id = self.rings.point(a);
+        let pa = self.pos[pa_id.index()];
+        let (ap, an) = (self.rings.prev(a), self.rings.next(a));
+        let (ap_id, an_id) = (self.rings.point(ap), self.rings.point(an));
+        let near = self.s.near_distance * self.step;
+        let mut cands = std::mem::take(&mut self.scratch);
+        cands.clear();
+        self.hash.for_near(pa, |b, pb| {
+            if pb.distance_squared(pa) < near * near {
+                cands.push((b, pb));
+            }
+        });
+        let (t1a, t2a, na) = (
+            self.t1[pa_id.index()],
+            self.t2[pa_id.index()],
+            self.normal[pa_id.index()],
+        );
+        let w1a = polar(pa, t1a, t2a, self.pos[ap_id.index()]);
+        let mut best: Option<(f64, NodeId)> = None;
+        for &(b, pb) in &cands {
+            let pb_id = self.rings.point(b);
+            if b == a || pb_id == pa_id || pb_id == ap_id || pb_id == an_id {
+                continue;
+            }
+            let (bp, bn) = (self.rings.prev(b), self.rings.next(b));
+            if self.rings.point(bp) == pa_id || self.rings.point(bn) == pa_id {
+                continue;
+            }
+            if self.rings.front(b) == self.rings.front(a)
+                && (b == self.rings.next(an) || b == self.rings.prev(ap))
+            {
+                continue;
+            }
+            let bi = pb_id.index();
+            if na.dot(self.normal[bi]) < self.s.near_normal_cos {
+                continue;
+            }
+            let th = ccw(w1a, polar(pa, t1a, t2a, pb));
+            if !(th > 0.0 && th < self.angle[a.index()]) {
+                continue;
+            }
+            let w1b = polar(pb, self.t1[bi], self.t2[bi], self.p(bp));
+            let thb = ccw(w1b, polar(pb, self.t1[bi], self.t2[bi], pa));
+            if !(thb > 0.0 && thb < self.angle[b.index()]) {
+                continue;
+            }
+            let d = pa.distance(pb);
+            if best.is_none_or(|(bd, bb)| (d, b) < (bd, bb)) {
+                best = Some((d, b));
+            }
+        }
+        self.scratch = cands;
+        best.map(|(_, b)| b)
+    }
+
+    /// Step 2, first case: a and b of the actual front are near. The shorter arc becomes a
+    /// new front and the actual one; the ends take no part in later distance checks.
+    fn split(&mut self, a: NodeId, b: NodeId) -> FrontId {
+        let old = self.rings.front(a);
+        let (x, y) = if self.rings.forward_arc_shorter(a, b) {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        let (nf, x2, y2) = self.rings.split(x, y);
+        self.ensure_heap(nf);
+        self.grow();
+        for n in [x, y, x2, y2] {
+            self.uncheck(n);
+        }
+        for n in self.rings.walk(nf) {
+            if n != x2 && n != y2 && !self.border[self.rings.point(n).index()] {
+                let e = Reverse((
+                    self.angle[n.index()].to_bits(),
+                    n.0,
+                    self.version[n.index()],
+                ));
+                self.heaps[nf.index()].push(e);
+            }
+        }
+        for n in [x, y, x2, y2] {
+            self.update_angle(n);
+        }
+        if self.trace {
+            eprintln!(
+                "march: split front {} at {} – {}: new front {} of {} points, old keeps {}",
+                old.0,
+                self.p(x),
+                self.p(y),
+                nf.0,
+                self.rings.len(nf),
+                self.rings.len(old)
+            );
+        }
+        self.passive.push(old);
+        nf
+    }
+
+    /// Step 2, second case: a of the actual front is near b of another front. The fronts
+    /// are united with a and b doubled; the first appearances are completed at once, the
+    /// smaller front angle first, and the second ones take no part in later distance checks.
+    fn unite(&mut self, a: NodeId, b: NodeId) -> Result<FrontId, MarchError> {
+        let fa = self.rings.front(a);
+        let fb = self.rings.front(b);
+        let other: Vec<NodeId> = self.rings.walk(fb);
+        let (b1, a2) = self.rings.unite(a, b);
+        self.grow();
+        let moved = std::mem::take(&mut self.heaps[fb.index()]);
+        self.heaps[fa.index()].extend(moved);
+        for n in [a, b, b1, a2] {
+            self.uncheck(n);
+        }
+        for n in other {
+            if self.checkable[n.index()] {
+                self.mark_pending(n);
+            }
+        }
+        for n in [a, b, b1, a2] {
+            self.update_angle(n);
+        }
+        if self.trace {
+            eprintln!(
+                "march: unite front {} with front {} at {} – {} ({} points)",
+                fa.0,
+                fb.0,
+                self.p(a),
+                self.p(b),
+                self.rings.len(fa)
+            );
+        }
+        let (first, second) = if self.angle[a.index()] <= self.angle[b1.index()] {
+            (a, b1)
+        } else {
+            (b1, a)
+        };
+        self.complete(first)?;
+        if self.rings.alive(second) && self.rings.len(fa) > 3 {
+            self.complete(second)?;
+        }
+        Ok(fa)
+    }
+
+    /// Step 3 at node m: surround it with triangles of ≈ 60°, replace it in its front by the
+    /// new points, and mark the neighbours changed.
+    fn complete(&mut self, m: NodeId) -> Result<(), MarchError> {
+        let (v1, v2) = (self.rings.prev(m), self.rings.next(m));
+        let (pm_id, p1_id, p2_id) = (
+            self.rings.point(m),
+            self.rings.point(v1),
+            self.rings.point(v2),
+        );
+        let (pm, p1, p2) = (
+            self.pos[pm_id.index()],
+            self.pos[p1_id.index()],
+            self.pos[p2_id.index()],
+        );
+        let omega = self.angle[m.index()];
+        let nt = if self.rings.len(self.rings.front(m)) <= 3 {
+            1
+        } else {
+            triangle_count(
+                omega,
+                pm.distance(p1),
+                pm.distance(p2),
+                p1.distance(p2),
+                self.step,
+                &self.s,
+            )
+        };
+        if self.trace {
+            eprintln!(
+                "march: complete {} (point {}) angle {:.4} with {} triangle(s)",
+                pm, pm_id.0, omega, nt
+            );
+        }
+        let mut new_points = Vec::with_capacity(nt as usize - 1);
+        if nt > 1 {
+            let (t1, t2) = (self.t1[pm_id.index()], self.t2[pm_id.index()]);
+            let w1 = polar(pm, t1, t2, p1);
+            let dw = omega / nt as f64;
+            for i in 1..nt {
+                let w = w1 + i as f64 * dw;
+                let q = pm + self.step * (w.cos() * t1 + w.sin() * t2);
+                new_points.push(self.new_point(pm, q)?);
+            }
+        }
+        let mut prev = p1_id;
+        for &p in &new_points {
+            self.add_triangle(prev, p, pm_id);
+            prev = p;
+        }
+        self.add_triangle(prev, p2_id, pm_id);
+        self.uncheck(m);
+        let new_nodes = self.rings.replace(m, &new_points);
+        self.grow();
+        self.drop_spikes(v1);
+        for n in new_nodes {
+            self.update_angle(n);
+        }
+        for n in [v1, v2] {
+            if self.rings.alive(n) {
+                self.update_angle(n);
+                if self.checkable[n.index()] {
+                    self.mark_pending(n);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// After a completion, two consecutive nodes of the same point (possible next to the
+    /// doubled points of a union) would form a zero-length front edge: keep one.
+    fn drop_spikes(&mut self, v: NodeId) {
+        if !self.rings.alive(v) {
+            return;
+        }
+        let n = self.rings.next(v);
+        if n != v && self.rings.point(n) == self.rings.point(v) && self.rings.len(self.rings.front(v)) > 3 {
+            self.uncheck(n);
+            self.rings.replace(n, &[]);
+            self.update_angle(v);
+            let nn = self.rings.next(v);
+            self.update_angle(nn);
+        }
+    }
+}

@@ -1,0 +1,64 @@
+//! Every threshold of the marching method, named once. Lengths are multiples of the step δ,
+//! angles are in radians, so the marcher behaves alike at every scale. docs/marcher.md says
+//! why each default was chosen.
+
+use crate::solve::tolerance::SurfacePointTolerance;
+
+/// Settings of `march::march`. `Default` gives the values the tests were run with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarchSettings {
+    /// Step 2: two front points are "near" when closer than `near_distance · δ`.
+    /// Default 0.7 (the paper says δ; at δ a split fires while the gap could still take a
+    /// row of triangles, which leaves slivers where the parts meet again).
+    pub near_distance: f64,
+    /// Step 2: near points must have normals with n_a · n_b above this (cosine). Default 0.3:
+    /// two sheets of a surface that pass close to each other with opposed normals are never
+    /// joined.
+    pub near_normal_cos: f64,
+    /// Remark 2: points whose front angle is below this are completed before any distance
+    /// check. Default 1.05 rad (≈ 60°, the paper's "about 60°").
+    pub small_angle: f64,
+    /// Step 3: if Δω < `min_delta_angle` and n_t > 1, one triangle fewer. Default 0.8 rad
+    /// (paper).
+    pub min_delta_angle: f64,
+    /// Step 3: a single triangle whose opposite edge would exceed `split_gap · δ` is split
+    /// into two. Default 1.2 (paper).
+    pub split_gap: f64,
+    /// Step 3: a front angle below `close_angle` with a neighbour within
+    /// `close_neighbour · δ` always gets one triangle. Default 3.0 rad (paper).
+    pub close_angle: f64,
+    /// Step 3: see `close_angle`. Default 0.5 (paper).
+    pub close_neighbour: f64,
+    /// Largest number of triangles before the marcher gives up (`MarchInput::max_triangles`
+    /// overrides it). Default 10 000 000 (a sphere at step radius/500; ~10 s).
+    pub max_triangles: u64,
+    /// A front or bound polygon's edges must be between `polygon_edge_min · δ` and
+    /// `polygon_edge_max · δ` long. Defaults 0.25 and 2.5.
+    pub polygon_edge_min: f64,
+    /// See `polygon_edge_min`.
+    pub polygon_edge_max: f64,
+    /// Polygon vertices must lie on the surface: |f|/|∇f| ≤ `polygon_on_surface · δ`.
+    /// Default 1e-6.
+    pub polygon_on_surface: f64,
+    /// The surfacepoint tolerances (relative to δ).
+    pub surface_point: SurfacePointTolerance,
+}
+
+impl Default for MarchSettings {
+    fn default() -> Self {
+        MarchSettings {
+            near_distance: 0.7,
+            near_normal_cos: 0.3,
+            small_angle: 1.05,
+            min_delta_angle: 0.8,
+            split_gap: 1.2,
+            close_angle: 3.0,
+            close_neighbour: 0.5,
+            max_triangles: 10_000_000,
+            polygon_edge_min: 0.25,
+            polygon_edge_max: 2.5,
+            polygon_on_surface: 1e-6,
+            surface_point: SurfacePointTolerance::default(),
+        }
+    }
+}

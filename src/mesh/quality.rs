@@ -1,0 +1,142 @@
+//! Quality of a triangle mesh: triangle angles (smallest, percentiles of each triangle's
+//! smallest angle), edge lengths, and how far vertices are off a surface (|f|/|∇f|); and the
+//! `MeshReport` the CLI prints as JSON (DESIGN.md §3).
+
+use glam::DVec3;
+use serde::Serialize;
+
+use super::Mesh;
+use super::topology::topology;
+use crate::surface::Surface;
+
+/// The three angles of a triangle in degrees (0 for a degenerate corner).
+pub fn triangle_angles(a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
+    let angle = |p: DVec3, q: DVec3, r: DVec3| {
+        let (u, v) = (q - p, r - p);
+        let d = u.length() * v.length();
+        if d > 0.0 {
+            (u.dot(v) / d).clamp(-1.0, 1.0).acos().to_degrees()
+        } else {
+            0.0
+        }
+    };
+    [angle(a, b, c), angle(b, c, a), angle(c, a, b)]
+}
+
+/// Statistics of the triangles' smallest angles and of the edge lengths.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Quality {
+    /// Smallest angle of any triangle, degrees.
+    pub min_angle_deg: f64,
+    /// 1st percentile of the triangles' smallest angles, degrees.
+    pub p1_angle_deg: f64,
+    /// Median of the triangles' smallest angles, degrees.
+    pub median_angle_deg: f64,
+    pub min_edge: f64,
+    pub mean_edge: f64,
+    pub max_edge: f64,
+}
+
+/// The `q`-quantile (0..1) of sorted values (nearest rank).
+fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let i = ((sorted.len() - 1) as f64 * q).round() as usize;
+    sorted[i.min(sorted.len() - 1)]
+}
+
+/// Angle and edge statistics of `mesh` (NaN where the mesh has no triangles).
+pub fn quality(mesh: &Mesh) -> Quality {
+    let mut mins: Vec<f64> = Vec::with_capacity(mesh.triangles.len());
+    let (mut emin, mut emax, mut esum, mut en) = (f64::INFINITY, 0.0f64, 0.0, 0usize);
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+        let ang = triangle_angles(a, b, c);
+        mins.push(ang[0].min(ang[1]).min(ang[2]));
+        for (p, q) in [(a, b), (b, c), (c, a)] {
+            let l = p.distance(q);
+            emin = emin.min(l);
+            emax = emax.max(l);
+            esum += l;
+            en += 1;
+        }
+    }
+    mins.sort_by(f64::total_cmp);
+    Quality {
+        min_angle_deg: mins.first().copied().unwrap_or(f64::NAN),
+        p1_angle_deg: quantile(&mins, 0.01),
+        median_angle_deg: quantile(&mins, 0.5),
+        min_edge: if en > 0 { emin } else { f64::NAN },
+        mean_edge: if en > 0 { esum / en as f64 } else { f64::NAN },
+        max_edge: if en > 0 { emax } else { f64::NAN },
+    }
+}
+
+/// max over vertices of |f|/|∇f| (the first-order distance to the surface); infinite if a
+/// gradient vanishes where f does not.
+pub fn max_vertex_error(mesh: &Mesh, surface: &mut dyn Surface) -> f64 {
+    let mut worst = 0.0f64;
+    for &p in &mesh.vertices {
+        let vg = surface.value_gradient(p);
+        let e = if vg.value == 0.0 {
+            0.0
+        } else {
+            vg.value.abs() / vg.gradient.length()
+        };
+        worst = worst.max(if e.is_nan() { f64::INFINITY } else { e });
+    }
+    worst
+}
+
+/// The per-mesh figures of `surfc mesh --json` (DESIGN.md §3); the CLI adds name, surface,
+/// step and seconds.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MeshReport {
+    pub vertices: usize,
+    pub triangles: usize,
+    pub boundary_edges: usize,
+    pub boundary_loops: usize,
+    pub non_manifold_edges: usize,
+    pub euler_characteristic: i64,
+    pub components: usize,
+    pub min_angle_deg: f64,
+    pub max_vertex_error: f64,
+}
+
+impl MeshReport {
+    pub fn new(mesh: &Mesh, surface: &mut dyn Surface) -> Self {
+        let t = topology(mesh);
+        let q = quality(mesh);
+        MeshReport {
+            vertices: t.used_vertices,
+            triangles: t.triangles,
+            boundary_edges: t.boundary_edges.len(),
+            boundary_loops: t.boundary_loops.len(),
+            non_manifold_edges: t.non_manifold_edges.len(),
+            euler_characteristic: t.euler_characteristic,
+            components: t.components,
+            min_angle_deg: q.min_angle_deg,
+            max_vertex_error: max_vertex_error(mesh, surface),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equilateral_and_right_triangles() {
+        let a = triangle_angles(
+            DVec3::ZERO,
+            DVec3::X,
+            DVec3::new(0.5, 3f64.sqrt() / 2.0, 0.0),
+        );
+        for x in a {
+            assert!((x - 60.0).abs() < 1e-9);
+        }
+        let a = triangle_angles(DVec3::ZERO, DVec3::X, DVec3::Y);
+        assert!((a[0] - 90.0).abs() < 1e-9 && (a[1] - 45.0).abs() < 1e-9);
+    }
+}
