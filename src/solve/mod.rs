@@ -1,7 +1,10 @@
 //! Numerical solvers on top of the surface oracle: Hartmann's surfacepoint projection (paper
 //! Sect. 2.2), and later foot points and curve tracing. Tolerances are named in `tolerance`.
 
+pub mod curve;
+pub mod foot;
 pub mod surfacepoint;
 pub mod tolerance;
 
+pub use foot::{Foot, FootError, PatchFoot, PatchFootError, foot_point, patch_foot};
 pub use surfacepoint::{SurfacePoint, SurfacePointError, surface_point, tangent_frame};

@@ -23,3 +23,145 @@ impl Default for SurfacePointTolerance {
         }
     }
 }
+
+/// Settings of the foot-point search on an implicit surface (`solve::foot`) and of the
+/// distance surfaces built on it (`surface::dist`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FootTolerance {
+    /// The length every other length here is relative to: the mesh step when one is known.
+    /// Default 1.0 (object-space units).
+    pub scale: f64,
+    /// Converged when the tangential part of x − q (the component of x − q perpendicular to
+    /// the normal at q) is shorter than `relative_residual * scale`, or than the rounding floor
+    /// of the coordinates. Default 1e-12: the foot point is then exact to ~1e-12·scale, the
+    /// distance (second order in that error) to rounding, the normal to ~1e-12·scale·κ.
+    pub relative_residual: f64,
+    /// Give up after this many outer (tangent-plane Newton) iterations. Default 50.
+    pub max_iterations: u32,
+    /// Step of the central differences of the gradient that estimate the curvature of the
+    /// surface at q, relative to `scale`. Default 1e-5: truncation error ~1e-10 relative,
+    /// rounding error ~1e-11; the estimate only sets the convergence rate, never the result.
+    pub hessian_step: f64,
+    /// Smallest eigenvalue the tangential Newton matrix I + d·W (W the Weingarten map, d the
+    /// signed distance) is allowed before it is clamped, dimensionless. Near a focal point it
+    /// tends to 0 and a raw Newton step would be huge. Default 0.25: a step is at most 4× the
+    /// plain tangent-plane step along each principal direction.
+    pub min_newton_eigenvalue: f64,
+    /// Halvings of a step that would increase the distance before giving up. Default 30.
+    pub max_backtracks: u32,
+    /// A query within `warm_radius * scale` of the previous query starts from the previous
+    /// foot point instead of surfacepoint(x). Default 1.0.
+    pub warm_radius: f64,
+    /// Warm starts are used only when the previous foot point was regular: the smallest
+    /// eigenvalue of I + d·W there at least this (dimensionless; 1 on a plane, 0 at a focal
+    /// point). Default 0.5: x lies well inside the tubular neighbourhood of radius 1/κ where
+    /// the nearest point is locally unique, so the warm and the cold search find the same
+    /// foot point.
+    pub warm_min_eigenvalue: f64,
+    /// The surfacepoint projection used inside the search (its `scale` is `scale` above).
+    pub surface_point: SurfacePointTolerance,
+}
+
+impl Default for FootTolerance {
+    fn default() -> Self {
+        FootTolerance {
+            scale: 1.0,
+            relative_residual: 1e-12,
+            max_iterations: 50,
+            hessian_step: 1e-5,
+            min_newton_eigenvalue: 0.25,
+            max_backtracks: 30,
+            warm_radius: 1.0,
+            warm_min_eigenvalue: 0.5,
+            surface_point: SurfacePointTolerance::default(),
+        }
+    }
+}
+
+/// Settings of the foot-point search on a parametric patch (`solve::foot::patch_foot`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PatchFootTolerance {
+    /// Convergence, iteration cap, curvature step (here relative to the side lengths of the
+    /// declared domain, in parameter units), clamping, backtracking and warm-start settings,
+    /// with the meanings (and defaults) of `FootTolerance`; its `surface_point` is unused.
+    pub foot: FootTolerance,
+    /// Cells per side of the pre-search grid over the extended domain. Default 32
+    /// ((32+1)² = 1089 patch evaluations per cold query).
+    pub grid: u32,
+    /// The pre-search covers the declared domain extended on every side by this fraction of
+    /// that side's length. Default 0.25 (a 1.5 × 1.5 times larger rectangle).
+    pub extension: f64,
+    /// Newton runs from this many of the grid's best discrete local minima; the nearest result
+    /// wins. Default 4.
+    pub candidates: u32,
+    /// |Pu × Pv| below `singular * |Pu| |Pv|` (the sine of the angle between the partials)
+    /// is a singular parametrisation. Default 1e-12.
+    pub singular: f64,
+}
+
+impl Default for PatchFootTolerance {
+    fn default() -> Self {
+        PatchFootTolerance {
+            foot: FootTolerance::default(),
+            grid: 32,
+            extension: 0.25,
+            candidates: 4,
+            singular: 1e-12,
+        }
+    }
+}
+
+/// Settings of curve tracing and sampling (`solve::curve`). Lengths relative to the step δ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CurveTolerance {
+    /// A correction onto both surfaces stops when its Newton step is shorter than
+    /// `relative_step * δ` (or the rounding floor); one more quadratic step follows implicitly.
+    /// Default 1e-12.
+    pub relative_step: f64,
+    /// Newton iterations of one correction onto both surfaces. Default 32.
+    pub max_corrector_iterations: u32,
+    /// Newton iterations of the first search for a point on both surfaces from `near`.
+    /// Default 200.
+    pub max_seek_iterations: u32,
+    /// The sine of the angle between the two normals below which the tangent ∇f1 × ∇f2
+    /// counts as vanishing (surfaces touching, or a singular point). Default 1e-6.
+    pub tangent_sine: f64,
+    /// Tracing steps per δ: the curve is traced at δ / `substeps` and then resampled
+    /// uniformly by arc length. Default 4.
+    pub substeps: u32,
+    /// A tracing step is halved at most this many times before giving up. Default 20.
+    pub max_halvings: u32,
+    /// Largest angle between the tangents at the ends of one tracing step, radians.
+    /// Default 0.3.
+    pub max_turn: f64,
+    /// Tracing gives up (no closure, no exit from the box) after this arc length, in units of
+    /// δ. Default 1e5.
+    pub max_length: f64,
+    /// The curve has closed when a tracing step passes within `closure_radius` tracing steps
+    /// of the start point, after at least three tracing steps. Default 0.5.
+    pub closure_radius: f64,
+    /// Sliding along the curve towards `near`: iterations, and the stop when the tangential
+    /// distance to `near` is below `relative_step * δ`. Default 100.
+    pub max_slide_iterations: u32,
+    /// Refuse to build polygons with more vertices than this (a tiny step on a huge curve).
+    /// Default 10 000 000.
+    pub max_vertices: usize,
+}
+
+impl Default for CurveTolerance {
+    fn default() -> Self {
+        CurveTolerance {
+            relative_step: 1e-12,
+            max_corrector_iterations: 32,
+            max_seek_iterations: 200,
+            tangent_sine: 1e-6,
+            substeps: 4,
+            max_halvings: 20,
+            max_turn: 0.3,
+            max_length: 1e5,
+            closure_radius: 0.5,
+            max_slide_iterations: 100,
+            max_vertices: 10_000_000,
+        }
+    }
+}

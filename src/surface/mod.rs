@@ -6,6 +6,10 @@ pub mod compiled;
 
 use glam::DVec3;
 
+pub mod dist;
+
+pub use dist::{ImplicitDist, PatchDist};
+
 /// f(p) and ∇f(p) at one point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ValueGrad {

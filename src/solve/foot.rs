@@ -1,0 +1,491 @@
+//! Foot points (numerical implicitization, paper Sect. 1): for a point x, the point q of a
+//! surface nearest to x, with the unit normal there and the signed distance.
+//!
+//! - Implicit surface f = 0 ([`foot_point`]): start at q = surfacepoint(x) (or a warm start),
+//!   then repeat "step in the tangent plane at q, then surfacepoint" until x − q is parallel to
+//!   the normal at q. The tangential step is a Newton step of |x − q|² in tangent
+//!   coordinates, (I + d·W) w = P_T(x − q), W the Weingarten map estimated by central
+//!   differences of ∇f; the plain tangent-plane projection (w = P_T(x − q)) converges only
+//!   for |d·κ| < 1 and oscillates beyond (outside a thin torus tube, say).
+//! - Parametric patch ([`patch_foot`]): Newton on (u, v) for ½|P(u, v) − x|², second
+//!   derivatives by central differences, seeded by a coarse grid pre-search over the extended
+//!   declared domain (or a warm start).
+//!
+//! Invariants of a returned foot: |P_T(x − q)| ≤ max(relative_residual·scale, rounding floor);
+//! `normal` is a unit vector (∇f/|∇f|, or (Pu × Pv)/|Pu × Pv| for patches); `distance` is
+//! ±|x − q| with the sign of (x − q)·normal. Every step decreases |x − q| (backtracking), so the
+//! search cannot cycle; it ends in a foot point or a typed error saying why.
+
+use glam::DVec3;
+
+use super::surfacepoint::{SurfacePointError, surface_point, tangent_frame};
+use super::tolerance::{FootTolerance, PatchFootTolerance};
+use crate::surface::{Patch, PatchJet, Surface};
+
+/// Rounding floor of lengths, in units of the largest coordinate magnitude involved: a
+/// residual this small is as converged as floating point allows.
+const ROUNDING: f64 = 64.0 * f64::EPSILON;
+
+/// A foot point on an implicit surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Foot {
+    /// q: the surface point nearest to x (locally; see the module docs).
+    pub point: DVec3,
+    /// ∇f/|∇f| at q.
+    pub normal: DVec3,
+    /// ±|x − q|, positive on the side ∇f points to (where f > 0).
+    pub distance: f64,
+    /// Outer iterations used.
+    pub iterations: u32,
+    /// |P_T(x − q)| at the end: the part of x − q not parallel to the normal.
+    pub residual: f64,
+    /// Smallest eigenvalue of I + d·W at q (1 on a plane, 0 when x is at a focal point, < 0
+    /// beyond it); NaN when the curvature could not be estimated. Decides warm starts.
+    pub min_eigenvalue: f64,
+}
+
+/// Why a foot-point search on an implicit surface failed.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum FootError {
+    /// The caller asked about a point with a NaN or infinite coordinate.
+    #[error("the query point {x} is not finite")]
+    NotFinite { x: DVec3 },
+    /// Projecting onto the surface failed (the surface is not defined there, its gradient
+    /// vanishes, or Newton did not converge).
+    #[error(
+        "surfacepoint failed in iteration {iteration} of the foot-point search for {x}: {source}"
+    )]
+    SurfacePoint {
+        x: DVec3,
+        iteration: u32,
+        #[source]
+        source: SurfacePointError,
+    },
+    /// The iteration cap was reached, or no step along the surface decreased the distance.
+    #[error(
+        "no foot point of {x} after {iterations} iterations: last point {last}, tangential residual {residual:e}"
+    )]
+    NoConvergence {
+        x: DVec3,
+        last: DVec3,
+        iterations: u32,
+        residual: f64,
+    },
+}
+
+/// A foot point on a parametric patch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PatchFoot {
+    /// Parameters of the foot point (possibly outside the declared domain).
+    pub u: f64,
+    pub v: f64,
+    /// P(u, v).
+    pub point: DVec3,
+    /// (Pu × Pv)/|Pu × Pv| at (u, v).
+    pub normal: DVec3,
+    /// (x − P)·normal = ±|x − P|.
+    pub distance: f64,
+    /// Newton iterations of the winning run.
+    pub iterations: u32,
+    /// |P_T(x − P)| at the end.
+    pub residual: f64,
+    /// Smallest eigenvalue of G⁻¹H (G the first fundamental form, H the Hessian of
+    /// ½|P − x|²): 1 − d·κ for the principal curvature that matters most; NaN if unknown.
+    pub min_eigenvalue: f64,
+}
+
+/// Why a foot-point search on a patch failed.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum PatchFootError {
+    /// The caller asked about a point with a NaN or infinite coordinate.
+    #[error("the query point {x} is not finite")]
+    NotFinite { x: DVec3 },
+    /// The patch's declared domain is empty or not finite (the patch's author is at fault).
+    #[error("the patch domain u in {u:?}, v in {v:?} is empty or not finite")]
+    BadDomain { u: (f64, f64), v: (f64, f64) },
+    /// The patch formula gave NaN or infinity.
+    #[error("the patch is not finite at (u, v) = ({u}, {v})")]
+    PatchNotFinite { u: f64, v: f64 },
+    /// Pu × Pv vanishes: no normal, no sign.
+    #[error("the patch parametrisation is singular at (u, v) = ({u}, {v}), point {at}")]
+    Singular { u: f64, v: f64, at: DVec3 },
+    /// The iteration cap was reached, or no step decreased the distance.
+    #[error(
+        "no foot point of {x} after {iterations} iterations: last (u, v) = ({u}, {v}), tangential residual {residual:e}"
+    )]
+    NoConvergence {
+        x: DVec3,
+        u: f64,
+        v: f64,
+        iterations: u32,
+        residual: f64,
+    },
+}
+
+/// The foot point of x on the implicit surface, starting from surfacepoint(`start`) (x itself
+/// when `start` is None: the cold start). See the module docs for the iteration.
+pub fn foot_point(
+    surface: &mut dyn Surface,
+    x: DVec3,
+    start: Option<DVec3>,
+    tol: &FootTolerance,
+) -> Result<Foot, FootError> {
+    if !x.is_finite() {
+        return Err(FootError::NotFinite { x });
+    }
+    let scale = tol.scale;
+    let project = |surface: &mut dyn Surface, p: DVec3, iteration: u32| {
+        surface_point(surface, p, scale, &tol.surface_point)
+            .map(|sp| sp.point)
+            .map_err(|source| FootError::SurfacePoint {
+                x,
+                iteration,
+                source,
+            })
+    };
+    let mut q = project(surface, start.unwrap_or(x), 0)?;
+    let mut min_eigenvalue = f64::NAN;
+    let mut residual = f64::INFINITY;
+    for iteration in 0..tol.max_iterations {
+        let vg = surface.value_gradient(q);
+        let g = vg.gradient;
+        let gl = g.length();
+        if !vg.value.is_finite() || !g.is_finite() {
+            let source = SurfacePointError::NotFinite {
+                at: q,
+                value: vg.value,
+            };
+            return Err(FootError::SurfacePoint {
+                x,
+                iteration,
+                source,
+            });
+        }
+        if gl == 0.0 {
+            let source = SurfacePointError::ZeroGradient { at: q };
+            return Err(FootError::SurfacePoint {
+                x,
+                iteration,
+                source,
+            });
+        }
+        let n = g / gl;
+        let r = x - q;
+        let rn = r.dot(n);
+        let rt = r - rn * n;
+        residual = rt.length();
+        let floor = ROUNDING * (x.abs().max_element() + q.abs().max_element() + r.length());
+        let converged = residual <= (tol.relative_residual * scale).max(floor);
+        let (t1, t2) = tangent_frame(n);
+        // The tangential Newton matrix M = I + (rn/|∇f|)·H_T (H_T: the Hessian of f restricted
+        // to the tangent plane), symmetric, in the frame (t1, t2).
+        let mut m = [1.0, 0.0, 1.0];
+        if rn != 0.0 && (!converged || min_eigenvalue.is_nan()) {
+            let h = tol.hessian_step * scale;
+            let c1 = hessian_column(surface, q, t1, h);
+            let c2 = hessian_column(surface, q, t2, h);
+            if let (Some(c1), Some(c2)) = (c1, c2) {
+                let k = rn / gl;
+                m = [
+                    1.0 + k * t1.dot(c1),
+                    k * 0.5 * (t2.dot(c1) + t1.dot(c2)),
+                    1.0 + k * t2.dot(c2),
+                ];
+                min_eigenvalue = sym_min_eigenvalue(m);
+            } else {
+                // No curvature where f is undefined nearby: plain tangent-plane steps, and no
+                // warm start from here.
+                min_eigenvalue = f64::NAN;
+            }
+        } else if rn == 0.0 {
+            min_eigenvalue = 1.0;
+        }
+        if converged {
+            let len = r.length();
+            let distance = if rn < 0.0 { -len } else { len };
+            return Ok(Foot {
+                point: q,
+                normal: n,
+                distance,
+                iterations: iteration,
+                residual,
+                min_eigenvalue,
+            });
+        }
+        let w = shifted_solve(m, [1.0, 0.0, 1.0], [rt.dot(t1), rt.dot(t2)], tol);
+        let mut step = w[0] * t1 + w[1] * t2;
+        let d0 = r.length();
+        let mut next = None;
+        let mut last_error = None;
+        for _ in 0..=tol.max_backtracks {
+            match project(surface, q + step, iteration) {
+                Ok(p) if (x - p).length() <= d0 + floor => {
+                    next = Some(p);
+                    break;
+                }
+                Ok(_) => {}
+                Err(e) => last_error = Some(e),
+            }
+            step *= 0.5;
+        }
+        match (next, last_error) {
+            (Some(p), _) => q = p,
+            (None, Some(e)) => return Err(e),
+            (None, None) => {
+                return Err(FootError::NoConvergence {
+                    x,
+                    last: q,
+                    iterations: iteration + 1,
+                    residual,
+                });
+            }
+        }
+    }
+    Err(FootError::NoConvergence {
+        x,
+        last: q,
+        iterations: tol.max_iterations,
+        residual,
+    })
+}
+
+/// H·dir by central differences of the gradient; None where f is not finite.
+fn hessian_column(surface: &mut dyn Surface, q: DVec3, dir: DVec3, h: f64) -> Option<DVec3> {
+    let gp = surface.value_gradient(q + h * dir).gradient;
+    let gm = surface.value_gradient(q - h * dir).gradient;
+    let c = (gp - gm) / (2.0 * h);
+    c.is_finite().then_some(c)
+}
+
+/// Smallest eigenvalue of the symmetric 2×2 matrix [[a, b], [b, c]] given as [a, b, c].
+fn sym_min_eigenvalue([a, b, c]: [f64; 3]) -> f64 {
+    0.5 * (a + c) - (0.5 * (a - c)).hypot(b)
+}
+
+/// Smallest generalized eigenvalue λ of H y = λ G y (G symmetric positive definite), both
+/// given as [m11, m12, m22].
+fn generalized_min_eigenvalue(h: [f64; 3], g: [f64; 3]) -> f64 {
+    let det_g = g[0] * g[2] - g[1] * g[1];
+    let det_h = h[0] * h[2] - h[1] * h[1];
+    let s = g[0] * h[2] + g[2] * h[0] - 2.0 * g[1] * h[1];
+    let disc = (s * s - 4.0 * det_g * det_h).max(0.0);
+    (s - disc.sqrt()) / (2.0 * det_g)
+}
+
+/// Solves (M + σG) w = rhs where σ ≥ 0 is the smallest shift that lifts the smallest
+/// generalized eigenvalue of (M, G) to `min_newton_eigenvalue` (a Levenberg–Marquardt shift
+/// in the metric G): a pure Newton step where M is safely positive definite, a damped,
+/// still descending step near and beyond focal points. Zero if the system is singular.
+fn shifted_solve(m: [f64; 3], g: [f64; 3], rhs: [f64; 2], tol: &FootTolerance) -> [f64; 2] {
+    let lambda = generalized_min_eigenvalue(m, g);
+    let sigma = if lambda.is_finite() {
+        (tol.min_newton_eigenvalue - lambda).max(0.0)
+    } else {
+        0.0
+    };
+    let a = [
+        m[0] + sigma * g[0],
+        m[1] + sigma * g[1],
+        m[2] + sigma * g[2],
+    ];
+    let det = a[0] * a[2] - a[1] * a[1];
+    if det == 0.0 || !det.is_finite() {
+        return [0.0, 0.0];
+    }
+    [
+        (a[2] * rhs[0] - a[1] * rhs[1]) / det,
+        (a[0] * rhs[1] - a[1] * rhs[0]) / det,
+    ]
+}
+
+/// The foot point of x on the patch. With `start`, one Newton run from that (u, v) (a warm
+/// start); without, the pre-search: the distance at the (grid+1)² nodes of the declared domain
+/// extended by `extension` on every side, Newton from the `candidates` best discrete local
+/// minima, the nearest result wins (ties: the better-ranked seed).
+pub fn patch_foot(
+    patch: &mut dyn Patch,
+    x: DVec3,
+    start: Option<(f64, f64)>,
+    tol: &PatchFootTolerance,
+) -> Result<PatchFoot, PatchFootError> {
+    if !x.is_finite() {
+        return Err(PatchFootError::NotFinite { x });
+    }
+    let (ud, vd) = patch.domain();
+    let valid = |(lo, hi): (f64, f64)| lo.is_finite() && hi.is_finite() && hi > lo;
+    if !valid(ud) || !valid(vd) {
+        return Err(PatchFootError::BadDomain { u: ud, v: vd });
+    }
+    let steps = (
+        tol.foot.hessian_step * (ud.1 - ud.0),
+        tol.foot.hessian_step * (vd.1 - vd.0),
+    );
+    if let Some(uv) = start {
+        return patch_newton(patch, x, uv, steps, tol);
+    }
+    let n = tol.grid.max(1) as usize;
+    let (eu, ev) = (tol.extension * (ud.1 - ud.0), tol.extension * (vd.1 - vd.0));
+    let (u0, v0) = (ud.0 - eu, vd.0 - ev);
+    let (du, dv) = (
+        (ud.1 - ud.0 + 2.0 * eu) / n as f64,
+        (vd.1 - vd.0 + 2.0 * ev) / n as f64,
+    );
+    let param = |i: usize, j: usize| (u0 + i as f64 * du, v0 + j as f64 * dv);
+    let side = n + 1;
+    let mut dist2 = Vec::with_capacity(side * side);
+    for i in 0..side {
+        for j in 0..side {
+            let (u, v) = param(i, j);
+            let d2 = (patch.point_jacobian(u, v).point - x).length_squared();
+            dist2.push(if d2.is_finite() { d2 } else { f64::INFINITY });
+        }
+    }
+    // Discrete local minima in the strict order (d², index), so a plateau yields one seed.
+    let key = |k: usize| (dist2[k], k);
+    let mut seeds: Vec<usize> = (0..side * side)
+        .filter(|&k| {
+            let (i, j) = (k / side, k % side);
+            dist2[k].is_finite()
+                && (i.saturating_sub(1)..=(i + 1).min(n)).all(|a| {
+                    (j.saturating_sub(1)..=(j + 1).min(n)).all(|b| {
+                        let o = a * side + b;
+                        o == k || key(k).partial_cmp(&key(o)) == Some(std::cmp::Ordering::Less)
+                    })
+                })
+        })
+        .collect();
+    seeds.sort_by(|&a, &b| {
+        key(a)
+            .partial_cmp(&key(b))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    seeds.truncate(tol.candidates.max(1) as usize);
+    let mut best: Option<PatchFoot> = None;
+    let mut first_error = None;
+    for k in seeds {
+        match patch_newton(patch, x, param(k / side, k % side), steps, tol) {
+            Ok(f) => {
+                if best.is_none_or(|b| f.distance.abs() < b.distance.abs()) {
+                    best = Some(f);
+                }
+            }
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    match (best, first_error) {
+        (Some(f), _) => Ok(f),
+        (None, Some(e)) => Err(e),
+        (None, None) => {
+            let (u, v) = param(0, 0);
+            Err(PatchFootError::PatchNotFinite { u, v })
+        }
+    }
+}
+
+fn eval_patch(patch: &mut dyn Patch, u: f64, v: f64) -> Result<PatchJet, PatchFootError> {
+    let jet = patch.point_jacobian(u, v);
+    if jet.point.is_finite() && jet.du.is_finite() && jet.dv.is_finite() {
+        Ok(jet)
+    } else {
+        Err(PatchFootError::PatchNotFinite { u, v })
+    }
+}
+
+/// Newton (Levenberg–Marquardt-shifted where not convex) on ½|P(u, v) − x|² from (u, v).
+fn patch_newton(
+    patch: &mut dyn Patch,
+    x: DVec3,
+    (mut u, mut v): (f64, f64),
+    (hu, hv): (f64, f64),
+    tol: &PatchFootTolerance,
+) -> Result<PatchFoot, PatchFootError> {
+    let ft = &tol.foot;
+    let mut min_eigenvalue = f64::NAN;
+    let mut residual = f64::INFINITY;
+    for iteration in 0..ft.max_iterations {
+        let jet = eval_patch(patch, u, v)?;
+        let normal_raw = jet.du.cross(jet.dv);
+        let nl = normal_raw.length();
+        if nl == 0.0 || nl <= tol.singular * jet.du.length() * jet.dv.length() {
+            return Err(PatchFootError::Singular {
+                u,
+                v,
+                at: jet.point,
+            });
+        }
+        let n = normal_raw / nl;
+        let r = x - jet.point;
+        let rn = r.dot(n);
+        residual = (r - rn * n).length();
+        let floor = ROUNDING * (x.abs().max_element() + jet.point.abs().max_element() + r.length());
+        let converged = residual <= (ft.relative_residual * ft.scale).max(floor);
+        let g = [jet.du.dot(jet.du), jet.du.dot(jet.dv), jet.dv.dot(jet.dv)];
+        // Hessian of ½|P − x|²: G + (P − x)·∂²P; second derivatives by central differences.
+        let mut h = g;
+        if !converged || min_eigenvalue.is_nan() {
+            let second = (|| {
+                let up = eval_patch(patch, u + hu, v).ok()?;
+                let um = eval_patch(patch, u - hu, v).ok()?;
+                let vp = eval_patch(patch, u, v + hv).ok()?;
+                let vm = eval_patch(patch, u, v - hv).ok()?;
+                let puu = (up.du - um.du) / (2.0 * hu);
+                let pvv = (vp.dv - vm.dv) / (2.0 * hv);
+                let puv = 0.5 * ((up.dv - um.dv) / (2.0 * hu) + (vp.du - vm.du) / (2.0 * hv));
+                Some((puu, puv, pvv))
+            })();
+            match second {
+                Some((puu, puv, pvv)) => {
+                    h = [g[0] - r.dot(puu), g[1] - r.dot(puv), g[2] - r.dot(pvv)];
+                    min_eigenvalue = generalized_min_eigenvalue(h, g);
+                }
+                None => min_eigenvalue = f64::NAN,
+            }
+        }
+        if converged {
+            return Ok(PatchFoot {
+                u,
+                v,
+                point: jet.point,
+                normal: n,
+                distance: rn,
+                iterations: iteration,
+                residual,
+                min_eigenvalue,
+            });
+        }
+        // Newton for ∇F = 0 with ∇F = Jᵀ(P − x) = −(Pu·r, Pv·r).
+        let w = shifted_solve(h, g, [jet.du.dot(r), jet.dv.dot(r)], ft);
+        let (mut su, mut sv) = (w[0], w[1]);
+        let d0 = r.length();
+        let mut accepted = false;
+        for _ in 0..=ft.max_backtracks {
+            let p = patch.point_jacobian(u + su, v + sv).point;
+            if p.is_finite() && (x - p).length() <= d0 + floor {
+                u += su;
+                v += sv;
+                accepted = true;
+                break;
+            }
+            su *= 0.5;
+            sv *= 0.5;
+        }
+        if !accepted {
+            return Err(PatchFootError::NoConvergence {
+                x,
+                u,
+                v,
+                iterations: iteration + 1,
+                residual,
+            });
+        }
+    }
+    Err(PatchFootError::NoConvergence {
+        x,
+        u,
+        v,
+        iterations: ft.max_iterations,
+        residual,
+    })
+}

@@ -1,0 +1,150 @@
+//! Distance surfaces (DESIGN.md §2 `dist`): the normal form of a surface, f(x) = the oriented
+//! distance from x to the surface, computed through foot points (`solve::foot`). The value is
+//! ±|x − q|, the gradient the unit normal at the foot point q (not differentiated through the
+//! iterations: that normal *is* the gradient of the distance function wherever the foot
+//! point is unique).
+//!
+//! Failure is reported through the `Surface` contract: value and gradient NaN, which callers
+//! detect. Direct callers who want the reason use `foot`, which returns the typed error.
+//!
+//! Warm start: each surface remembers its last query and foot point; a query within
+//! `warm_radius · scale` of the last one starts from there, but only if the last foot point was
+//! regular (x well inside the tubular neighbourhood, see `FootTolerance::warm_min_eigenvalue`),
+//! so warm and cold searches converge to the same foot point. A failed warm search is
+//! repeated cold. The cache makes a surface's answers depend on the order of queries only at
+//! the level of the convergence tolerance, and the order is itself deterministic.
+
+use glam::DVec3;
+
+use super::{Patch, Surface, ValueGrad};
+use crate::solve::foot::{Foot, FootError, PatchFoot, PatchFootError, foot_point, patch_foot};
+use crate::solve::tolerance::{FootTolerance, PatchFootTolerance};
+
+/// What a NaN-reporting surface returns.
+const FAILED: ValueGrad = ValueGrad {
+    value: f64::NAN,
+    gradient: DVec3::NAN,
+};
+
+/// The oriented distance to an implicit surface f = 0: negative where f < 0.
+pub struct ImplicitDist {
+    /// The surface whose distance this is.
+    pub inner: Box<dyn Surface>,
+    /// Foot-point settings; `tolerance.scale` should be the mesh step when it is known.
+    pub tolerance: FootTolerance,
+    warm: Option<(DVec3, DVec3)>,
+}
+
+impl ImplicitDist {
+    /// The distance to `inner` with the default tolerance (scale 1).
+    pub fn new(inner: Box<dyn Surface>) -> Self {
+        Self::with_tolerance(inner, FootTolerance::default())
+    }
+
+    pub fn with_tolerance(inner: Box<dyn Surface>, tolerance: FootTolerance) -> Self {
+        ImplicitDist {
+            inner,
+            tolerance,
+            warm: None,
+        }
+    }
+
+    /// The foot point of x, with the reason when there is none. Uses and updates the warm
+    /// start.
+    pub fn foot(&mut self, x: DVec3) -> Result<Foot, FootError> {
+        let tol = self.tolerance;
+        let warm = self
+            .warm
+            .filter(|(wx, _)| (x - *wx).length() <= tol.warm_radius * tol.scale)
+            .map(|(_, q)| q);
+        let result = match warm {
+            Some(q) => foot_point(self.inner.as_mut(), x, Some(q), &tol)
+                .or_else(|_| foot_point(self.inner.as_mut(), x, None, &tol)),
+            None => foot_point(self.inner.as_mut(), x, None, &tol),
+        };
+        self.warm = match &result {
+            Ok(f) if f.min_eigenvalue >= tol.warm_min_eigenvalue => Some((x, f.point)),
+            _ => None,
+        };
+        result
+    }
+
+    /// Forget the warm start (the next query starts cold).
+    pub fn clear_warm_start(&mut self) {
+        self.warm = None;
+    }
+}
+
+impl Surface for ImplicitDist {
+    fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+        match self.foot(p) {
+            Ok(f) => ValueGrad {
+                value: f.distance,
+                gradient: f.normal,
+            },
+            Err(_) => FAILED,
+        }
+    }
+}
+
+/// The oriented distance to a parametric patch, extended beyond its declared domain:
+/// (x − P)·n̂ at the foot point, n̂ = (Pu × Pv)/|Pu × Pv|.
+pub struct PatchDist {
+    /// The patch whose distance this is.
+    pub patch: Box<dyn Patch>,
+    /// Foot-point settings (pre-search grid and region, Newton, warm start).
+    pub tolerance: PatchFootTolerance,
+    warm: Option<(DVec3, (f64, f64))>,
+}
+
+impl PatchDist {
+    /// The distance to `patch` with the default tolerance (scale 1).
+    pub fn new(patch: Box<dyn Patch>) -> Self {
+        Self::with_tolerance(patch, PatchFootTolerance::default())
+    }
+
+    pub fn with_tolerance(patch: Box<dyn Patch>, tolerance: PatchFootTolerance) -> Self {
+        PatchDist {
+            patch,
+            tolerance,
+            warm: None,
+        }
+    }
+
+    /// The foot point of x, with the reason when there is none. Uses and updates the warm
+    /// start.
+    pub fn foot(&mut self, x: DVec3) -> Result<PatchFoot, PatchFootError> {
+        let tol = self.tolerance;
+        let warm = self
+            .warm
+            .filter(|(wx, _)| (x - *wx).length() <= tol.foot.warm_radius * tol.foot.scale)
+            .map(|(_, uv)| uv);
+        let result = match warm {
+            Some(uv) => patch_foot(self.patch.as_mut(), x, Some(uv), &tol)
+                .or_else(|_| patch_foot(self.patch.as_mut(), x, None, &tol)),
+            None => patch_foot(self.patch.as_mut(), x, None, &tol),
+        };
+        self.warm = match &result {
+            Ok(f) if f.min_eigenvalue >= tol.foot.warm_min_eigenvalue => Some((x, (f.u, f.v))),
+            _ => None,
+        };
+        result
+    }
+
+    /// Forget the warm start (the next query runs the pre-search).
+    pub fn clear_warm_start(&mut self) {
+        self.warm = None;
+    }
+}
+
+impl Surface for PatchDist {
+    fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+        match self.foot(p) {
+            Ok(f) => ValueGrad {
+                value: f.distance,
+                gradient: f.normal,
+            },
+            Err(_) => FAILED,
+        }
+    }
+}
