@@ -22,3 +22,5 @@ pub struct NamedMesh<'a> {
     pub name: &'a str,
     pub mesh: &'a Mesh,
 }
+
+pub mod write;
