@@ -26,3 +26,5 @@ pub struct NamedMesh<'a> {
     pub name: &'a str,
     pub mesh: &'a Mesh,
 }
+
+pub mod write;

@@ -1,0 +1,177 @@
+//! GLB: named meshes → one glTF 2.0 binary file. Each mesh is a node and a mesh of its name
+//! with one triangle primitive: POSITION and NORMAL (f32 vec3; POSITION with the min/max the
+//! specification requires) and u32 indices. A mesh without triangles is a node without a
+//! mesh (glTF allows no empty accessors). Vertices are not shared between meshes: each
+//! primitive owns its attribute arrays.
+
+use std::io::{self, Write};
+
+use serde_json::{Value, json};
+
+use super::{Format, InvalidMesh, NamedMesh};
+
+/// glTF bufferView targets.
+const ARRAY_BUFFER: u32 = 34962;
+const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+/// glTF accessor component types.
+const FLOAT: u32 = 5126;
+const UNSIGNED_INT: u32 = 5125;
+/// glTF primitive mode: triangles.
+const TRIANGLES: u32 = 4;
+/// GLB header and chunk type codes.
+const MAGIC: &[u8; 4] = b"glTF";
+const CHUNK_JSON: &[u8; 4] = b"JSON";
+const CHUNK_BIN: &[u8; 4] = b"BIN\0";
+
+/// Writes the meshes as one GLB file (see the module comment).
+pub fn write_glb(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
+    super::checked(Format::Glb, out, meshes, write)
+}
+
+/// The bytes a mesh contributes to the binary chunk: positions, normals, indices.
+fn sizes(named: &NamedMesh) -> [u64; 3] {
+    let vertices = named.mesh.vertices.len() as u64;
+    let triangles = named.mesh.triangles.len() as u64;
+    [12 * vertices, 12 * vertices, 12 * triangles]
+}
+
+pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
+    let drawn = |m: &NamedMesh| !m.mesh.triangles.is_empty();
+    let mut nodes = Vec::new();
+    let mut gltf_meshes = Vec::new();
+    let mut accessors = Vec::new();
+    let mut views = Vec::new();
+    let mut offset = 0u64;
+    for named in meshes {
+        if !drawn(named) {
+            nodes.push(json!({ "name": named.name }));
+            continue;
+        }
+        let mesh = named.mesh;
+        let (lo, hi) = mesh.vertices.iter().fold(
+            ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+            |(lo, hi), v| {
+                let v = v.to_array().map(|x| x as f32);
+                (
+                    [0, 1, 2].map(|i| lo[i].min(v[i])),
+                    [0, 1, 2].map(|i| hi[i].max(v[i])),
+                )
+            },
+        );
+        let first = accessors.len();
+        let targets = [ARRAY_BUFFER, ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER];
+        for (k, (size, target)) in sizes(named).into_iter().zip(targets).enumerate() {
+            views.push(json!({
+                "buffer": 0, "byteOffset": offset, "byteLength": size, "target": target
+            }));
+            offset += size;
+            let view = first + k;
+            accessors.push(match k {
+                0 => json!({
+                    "bufferView": view, "componentType": FLOAT, "count": mesh.vertices.len(),
+                    "type": "VEC3", "min": lo, "max": hi
+                }),
+                1 => json!({
+                    "bufferView": view, "componentType": FLOAT, "count": mesh.vertices.len(),
+                    "type": "VEC3"
+                }),
+                _ => json!({
+                    "bufferView": view, "componentType": UNSIGNED_INT,
+                    "count": 3 * mesh.triangles.len(), "type": "SCALAR"
+                }),
+            });
+        }
+        nodes.push(json!({ "name": named.name, "mesh": gltf_meshes.len() }));
+        gltf_meshes.push(json!({
+            "name": named.name,
+            "primitives": [{
+                "attributes": { "POSITION": first, "NORMAL": first + 1 },
+                "indices": first + 2,
+                "mode": TRIANGLES
+            }]
+        }));
+    }
+
+    // glTF forbids empty arrays: leave out what is empty.
+    let mut document = serde_json::Map::new();
+    document.insert(
+        "asset".into(),
+        json!({ "version": "2.0", "generator": "surfc" }),
+    );
+    if !nodes.is_empty() {
+        document.insert("scene".into(), json!(0));
+        let scene = json!({ "nodes": (0..nodes.len()).collect::<Vec<_>>() });
+        document.insert("scenes".into(), json!([scene]));
+    }
+    for (key, list) in [
+        ("nodes", nodes),
+        ("meshes", gltf_meshes),
+        ("accessors", accessors),
+        ("bufferViews", views),
+    ] {
+        if !list.is_empty() {
+            document.insert(key.into(), Value::Array(list));
+        }
+    }
+    if offset > 0 {
+        document.insert("buffers".into(), json!([{ "byteLength": offset }]));
+    }
+    let mut text = serde_json::to_vec(&Value::Object(document)).map_err(io::Error::other)?;
+    // Chunks are 4-byte aligned: JSON padded with spaces, BIN with zeros (ours is aligned).
+    while text.len() % 4 != 0 {
+        text.push(b' ');
+    }
+    let bin_chunk = if offset > 0 { 8 + offset } else { 0 };
+    let total = 12 + 8 + text.len() as u64 + bin_chunk;
+    let too_large = |count| InvalidMesh::TooLarge {
+        format: Format::Glb,
+        what: "bytes",
+        count,
+        limit: u64::from(u32::MAX),
+    };
+    let total = u32::try_from(total).map_err(|_| too_large(total))?;
+    let json_len = u32::try_from(text.len()).map_err(|_| too_large(text.len() as u64))?;
+
+    out.write_all(MAGIC)?;
+    out.write_all(&2u32.to_le_bytes())?;
+    out.write_all(&total.to_le_bytes())?;
+    out.write_all(&json_len.to_le_bytes())?;
+    out.write_all(CHUNK_JSON)?;
+    out.write_all(&text)?;
+    if offset == 0 {
+        return Ok(());
+    }
+    // `total` fits in u32, so the binary chunk does too.
+    out.write_all(&u32::try_from(offset).unwrap_or(u32::MAX).to_le_bytes())?;
+    out.write_all(CHUNK_BIN)?;
+    let mut bytes = Vec::with_capacity(1 << 16);
+    for named in meshes.iter().filter(|m| drawn(m)) {
+        let mesh = named.mesh;
+        for list in [&mesh.vertices, &mesh.normals] {
+            for v in list {
+                for x in v.to_array() {
+                    bytes.extend_from_slice(&(x as f32).to_le_bytes());
+                }
+                if bytes.len() >= 1 << 16 {
+                    flush(&mut bytes, out)?;
+                }
+            }
+        }
+        for tri in &mesh.triangles {
+            for i in tri {
+                bytes.extend_from_slice(&i.to_le_bytes());
+            }
+            if bytes.len() >= 1 << 16 {
+                flush(&mut bytes, out)?;
+            }
+        }
+    }
+    flush(&mut bytes, out)
+}
+
+/// Writes out the bytes gathered so far.
+fn flush(bytes: &mut Vec<u8>, out: &mut dyn Write) -> io::Result<()> {
+    out.write_all(bytes)?;
+    bytes.clear();
+    Ok(())
+}

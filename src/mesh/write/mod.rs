@@ -1,0 +1,585 @@
+//! Mesh files: named meshes → the bytes of one OBJ, OFF, binary STL, binary PLY or GLB file.
+//!
+//! Every writer takes all meshes of a file at once and never panics: a mesh that cannot be
+//! written (a non-finite coordinate, an index past the vertex list, a normal list of the wrong
+//! length) is an [`InvalidMesh`] error before the first byte is written. Output is a pure
+//! function of the meshes: same meshes, same bytes. Files are written atomically by
+//! [`write_mesh_file`] (temporary file in the target's directory, then rename), so a failure
+//! leaves an existing file as it was. The formats and their precision are described in
+//! `docs/formats.md`.
+
+mod glb;
+mod obj;
+mod off;
+mod ply;
+mod stl;
+
+use std::collections::HashMap;
+use std::fmt;
+use std::fs;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use glam::DVec3;
+
+use super::{Mesh, NamedMesh};
+
+pub use glb::write_glb;
+pub use obj::write_obj;
+pub use off::write_off;
+pub use ply::write_ply;
+pub use stl::write_stl;
+
+/// A mesh file format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Format {
+    /// Wavefront OBJ, text: one `o` object per mesh, shared positions, per-mesh normals.
+    Obj,
+    /// Binary STL, f32 triangles with facet normals, no names.
+    Stl,
+    /// Binary little-endian PLY, f64 positions and normals, one merged vertex list.
+    Ply,
+    /// OFF, text: one merged vertex list with shared positions, no normals or names.
+    Off,
+    /// glTF 2.0 binary: one named node and mesh per mesh, f32 positions and normals.
+    Glb,
+}
+
+impl Format {
+    /// Every format, in the order of the command line's help.
+    pub const ALL: [Format; 5] = [
+        Format::Obj,
+        Format::Stl,
+        Format::Ply,
+        Format::Off,
+        Format::Glb,
+    ];
+
+    /// The file extension, lower case and without the dot.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Obj => "obj",
+            Format::Stl => "stl",
+            Format::Ply => "ply",
+            Format::Off => "off",
+            Format::Glb => "glb",
+        }
+    }
+
+    /// The format an extension names (case-insensitive, without the dot).
+    pub fn from_extension(extension: &str) -> Option<Format> {
+        Format::ALL
+            .into_iter()
+            .find(|f| f.extension().eq_ignore_ascii_case(extension))
+    }
+
+    /// The format of a file path, by its extension.
+    pub fn from_path(path: &Path) -> Result<Format, FormatError> {
+        let extension = path.extension().map(|e| e.to_string_lossy().into_owned());
+        match extension.as_deref().and_then(Format::from_extension) {
+            Some(format) => Ok(format),
+            None => Err(FormatError::UnknownExtension {
+                path: path.to_path_buf(),
+                extension,
+            }),
+        }
+    }
+
+    /// The format to write: the explicit choice if there is one (it must agree with the
+    /// output's extension when that names a format), else the output's extension, else OBJ.
+    pub fn choose(explicit: Option<Format>, output: Option<&Path>) -> Result<Format, FormatError> {
+        let by_extension = output.map(Format::from_path);
+        match (explicit, by_extension) {
+            (Some(explicit), Some(Ok(implied))) if explicit != implied => {
+                Err(FormatError::Mismatch {
+                    path: output.map(Path::to_path_buf).unwrap_or_default(),
+                    explicit,
+                    implied,
+                })
+            }
+            (Some(explicit), _) => Ok(explicit),
+            (None, Some(result)) => result,
+            (None, None) => Ok(Format::Obj),
+        }
+    }
+
+    /// `<stem of input>.<extension>` in the current directory: the default output of
+    /// `surfc mesh FILE`.
+    pub fn default_output(self, input: &Path) -> PathBuf {
+        let stem = input.file_stem().unwrap_or(input.as_os_str());
+        let mut path = PathBuf::from(stem);
+        path.set_extension(self.extension());
+        path
+    }
+
+    /// Writes the meshes in this format.
+    pub fn write(self, out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
+        match self {
+            Format::Obj => write_obj(out, meshes),
+            Format::Stl => write_stl(out, meshes),
+            Format::Ply => write_ply(out, meshes),
+            Format::Off => write_off(out, meshes),
+            Format::Glb => write_glb(out, meshes),
+        }
+    }
+
+    /// Whether the format stores coordinates as f32 (so that they must fit).
+    fn stores_f32(self) -> bool {
+        matches!(self, Format::Stl | Format::Glb)
+    }
+
+    /// Whether the format stores vertex normals (so that they must be valid).
+    fn stores_normals(self) -> bool {
+        matches!(self, Format::Obj | Format::Ply | Format::Glb)
+    }
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.extension())
+    }
+}
+
+impl FromStr for Format {
+    type Err = FormatError;
+    fn from_str(s: &str) -> Result<Format, FormatError> {
+        Format::from_extension(s).ok_or_else(|| FormatError::UnknownName(s.to_owned()))
+    }
+}
+
+/// The output format could not be chosen: the user's command line is at fault.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum FormatError {
+    #[error(
+        "cannot tell the mesh format of `{}` from its extension{}; use .obj, .stl, .ply, .off or .glb, or --format",
+        path.display(),
+        extension.as_deref().map(|e| format!(" `.{e}`")).unwrap_or_default()
+    )]
+    UnknownExtension {
+        path: PathBuf,
+        extension: Option<String>,
+    },
+    #[error("unknown mesh format `{0}`; expected obj, stl, ply, off or glb")]
+    UnknownName(String),
+    #[error(
+        "`{}` has the extension of {implied} but --format asks for {explicit}",
+        path.display()
+    )]
+    Mismatch {
+        path: PathBuf,
+        explicit: Format,
+        implied: Format,
+    },
+}
+
+/// A mesh that no format can write: the mesh's producer is at fault. Names the mesh by its
+/// name and the element by its index in that mesh.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum InvalidMesh {
+    #[error("mesh `{mesh}`: vertex {vertex} has a non-finite coordinate ({position:?})")]
+    NonFiniteVertex {
+        mesh: String,
+        vertex: u32,
+        position: [f64; 3],
+    },
+    #[error(
+        "mesh `{mesh}`: vertex {vertex} ({position:?}) lies outside the range of {format}'s 32-bit floats"
+    )]
+    OutOfF32Range {
+        mesh: String,
+        vertex: u32,
+        position: [f64; 3],
+        format: Format,
+    },
+    #[error("mesh `{mesh}`: the normal of vertex {vertex} is not finite ({normal:?})")]
+    NonFiniteNormal {
+        mesh: String,
+        vertex: u32,
+        normal: [f64; 3],
+    },
+    #[error("mesh `{mesh}` has {vertices} vertices but {normals} normals")]
+    NormalCount {
+        mesh: String,
+        vertices: usize,
+        normals: usize,
+    },
+    #[error(
+        "mesh `{mesh}`: triangle {triangle} uses vertex {index}, but the mesh has {vertices} vertices"
+    )]
+    IndexOutOfRange {
+        mesh: String,
+        triangle: usize,
+        index: u32,
+        vertices: usize,
+    },
+    #[error("the meshes have {count} {what}, more than {format} can hold ({limit})")]
+    TooLarge {
+        format: Format,
+        what: &'static str,
+        count: u64,
+        limit: u64,
+    },
+}
+
+impl From<InvalidMesh> for io::Error {
+    fn from(e: InvalidMesh) -> io::Error {
+        io::Error::new(io::ErrorKind::InvalidData, e)
+    }
+}
+
+/// Writing a mesh or picture file failed. Every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum WriteError {
+    #[error("cannot write `{}`: `{}` is not an existing directory", path.display(), dir.display())]
+    MissingDirectory { path: PathBuf, dir: PathBuf },
+    #[error("cannot write `{}`: cannot create a file in `{}`: {source}", path.display(), dir.display())]
+    CreateTemporary {
+        path: PathBuf,
+        dir: PathBuf,
+        source: io::Error,
+    },
+    #[error("cannot write `{}`: {source}", path.display())]
+    Write { path: PathBuf, source: io::Error },
+    #[error("cannot write `{}`: {source}", path.display())]
+    InvalidMesh { path: PathBuf, source: InvalidMesh },
+    #[error("cannot write `{}`: replacing it failed: {source}", path.display())]
+    Replace { path: PathBuf, source: io::Error },
+}
+
+impl WriteError {
+    /// The file that could not be written.
+    pub fn path(&self) -> &Path {
+        match self {
+            WriteError::MissingDirectory { path, .. }
+            | WriteError::CreateTemporary { path, .. }
+            | WriteError::Write { path, .. }
+            | WriteError::InvalidMesh { path, .. }
+            | WriteError::Replace { path, .. } => path,
+        }
+    }
+}
+
+/// Writes the meshes to `path` in `format`, atomically: the bytes go to a temporary file in
+/// the same directory, which then replaces `path`; on any failure `path` is left as it was
+/// and the temporary file is removed.
+pub fn write_mesh_file(
+    path: &Path,
+    format: Format,
+    meshes: &[NamedMesh],
+) -> Result<(), WriteError> {
+    validate(meshes, format).map_err(|source| WriteError::InvalidMesh {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    write_atomic(path, |out| format.write_unchecked(out, meshes))
+}
+
+/// Writes a file atomically: `write` fills a temporary file in `path`'s directory, which then
+/// replaces `path`. If `write` fails (or flushing, syncing or renaming does), `path` keeps its
+/// old contents and the temporary file is removed. The new file gets the permissions of the
+/// file it replaces, or the usual ones (0o666 less the umask) for a new file.
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<(), WriteError> {
+    let dir = match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(WriteError::MissingDirectory {
+            path: path.to_path_buf(),
+            dir,
+        });
+    }
+    let prefix = format!(
+        ".{}.",
+        path.file_name().unwrap_or_default().to_string_lossy()
+    );
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    // Temporary files are created owner-only; the result should look like any other file.
+    let permissions = fs::metadata(path).ok().map(|m| m.permissions());
+    #[cfg(unix)]
+    let permissions = permissions.or_else(|| {
+        use std::os::unix::fs::PermissionsExt;
+        Some(fs::Permissions::from_mode(0o666))
+    });
+    if let Some(permissions) = permissions {
+        builder.permissions(permissions);
+    }
+    let temporary = builder
+        .tempfile_in(&dir)
+        .map_err(|source| WriteError::CreateTemporary {
+            path: path.to_path_buf(),
+            dir: dir.clone(),
+            source,
+        })?;
+    let write_error = |source| WriteError::Write {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut out = BufWriter::new(temporary);
+    write(&mut out).map_err(write_error)?;
+    let temporary = out.into_inner().map_err(|e| write_error(e.into_error()))?;
+    temporary.as_file().sync_all().map_err(write_error)?;
+    temporary.persist(path).map_err(|e| WriteError::Replace {
+        path: path.to_path_buf(),
+        source: e.error,
+    })?;
+    Ok(())
+}
+
+impl Format {
+    fn write_unchecked(self, out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
+        match self {
+            Format::Obj => obj::write(out, meshes),
+            Format::Stl => stl::write(out, meshes),
+            Format::Ply => ply::write(out, meshes),
+            Format::Off => off::write(out, meshes),
+            Format::Glb => glb::write(out, meshes),
+        }
+    }
+}
+
+/// Checks what every writer relies on: finite coordinates, indices inside the vertex list,
+/// and (for formats that store them) one finite normal per vertex.
+pub fn validate(meshes: &[NamedMesh], format: Format) -> Result<(), InvalidMesh> {
+    for named in meshes {
+        let mesh = named.mesh;
+        let name = || named.name.to_owned();
+        for (i, v) in mesh.vertices.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(InvalidMesh::NonFiniteVertex {
+                    mesh: name(),
+                    vertex: index_u32(i),
+                    position: v.to_array(),
+                });
+            }
+            if format.stores_f32() && v.abs().max_element() > f64::from(f32::MAX) {
+                return Err(InvalidMesh::OutOfF32Range {
+                    mesh: name(),
+                    vertex: index_u32(i),
+                    position: v.to_array(),
+                    format,
+                });
+            }
+        }
+        if format.stores_normals() {
+            if mesh.normals.len() != mesh.vertices.len() {
+                return Err(InvalidMesh::NormalCount {
+                    mesh: name(),
+                    vertices: mesh.vertices.len(),
+                    normals: mesh.normals.len(),
+                });
+            }
+            for (i, n) in mesh.normals.iter().enumerate() {
+                if !n.is_finite() {
+                    return Err(InvalidMesh::NonFiniteNormal {
+                        mesh: name(),
+                        vertex: index_u32(i),
+                        normal: n.to_array(),
+                    });
+                }
+            }
+        }
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            if let Some(&index) = tri.iter().find(|&&i| i as usize >= mesh.vertices.len()) {
+                return Err(InvalidMesh::IndexOutOfRange {
+                    mesh: name(),
+                    triangle: t,
+                    index,
+                    vertices: mesh.vertices.len(),
+                });
+            }
+        }
+    }
+    // Every format indexes vertices (or counts triangles) with 32 bits; PLY's `int` is signed.
+    let limit = match format {
+        Format::Ply => i32::MAX as u64,
+        _ => u64::from(u32::MAX),
+    };
+    let triangles: u64 = meshes.iter().map(|m| m.mesh.triangles.len() as u64).sum();
+    let vertices: u64 = meshes.iter().map(|m| m.mesh.vertices.len() as u64).sum();
+    for (what, count) in [("triangles", triangles), ("vertices", vertices)] {
+        if count > limit {
+            return Err(InvalidMesh::TooLarge {
+                format,
+                what,
+                count,
+                limit,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// A vertex index that `validate` has bounded by `u32::MAX`.
+fn index_u32(i: usize) -> u32 {
+    u32::try_from(i).unwrap_or(u32::MAX)
+}
+
+/// The positions of all meshes of a file with bit-identical positions merged, so that meshes
+/// sharing a polygon share its vertices in the file. Positions are numbered in order of first
+/// appearance (mesh by mesh, vertex by vertex), which makes the result deterministic.
+struct SharedPositions {
+    /// The distinct positions, in order of first appearance.
+    positions: Vec<DVec3>,
+    /// For each mesh, the index in `positions` of each of its vertices.
+    index: Vec<Vec<u32>>,
+}
+
+impl SharedPositions {
+    fn new(meshes: &[NamedMesh]) -> SharedPositions {
+        let mut positions = Vec::new();
+        let mut seen: HashMap<[u64; 3], u32> = HashMap::new();
+        let index = meshes
+            .iter()
+            .map(|m| {
+                m.mesh
+                    .vertices
+                    .iter()
+                    .map(|v| {
+                        let key = [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+                        *seen.entry(key).or_insert_with(|| {
+                            positions.push(*v);
+                            index_u32(positions.len() - 1)
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        SharedPositions { positions, index }
+    }
+}
+
+/// A mesh name made safe for line-based headers (OBJ, PLY comments): whitespace and control
+/// characters become `_`, and an empty name becomes `mesh`.
+fn header_name(name: &str) -> String {
+    if name.is_empty() {
+        return "mesh".to_owned();
+    }
+    name.chars()
+        .map(|c| {
+            if c.is_whitespace() || c.is_control() {
+                '_'
+            } else {
+                c
+            }
+        })
+        .collect()
+}
+
+/// The geometric normal of a triangle (unit length, oriented by the winding), or zero for a
+/// degenerate triangle.
+fn facet_normal(mesh: &Mesh, tri: [u32; 3]) -> DVec3 {
+    let [a, b, c] = tri.map(|i| mesh.vertices[i as usize]);
+    (b - a).cross(c - a).normalize_or_zero()
+}
+
+/// Shared entry point of the public writers: validation, then the format's own code.
+fn checked(
+    format: Format,
+    out: &mut dyn Write,
+    meshes: &[NamedMesh],
+    write: fn(&mut dyn Write, &[NamedMesh]) -> io::Result<()>,
+) -> io::Result<()> {
+    validate(meshes, format)?;
+    write(out, meshes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn formats_follow_extensions_in_any_case() {
+        for format in Format::ALL {
+            let lower = PathBuf::from(format!("a/b.{}", format.extension()));
+            let upper = PathBuf::from(format!("b.{}", format.extension().to_uppercase()));
+            assert_eq!(Format::from_path(&lower), Ok(format));
+            assert_eq!(Format::from_path(&upper), Ok(format));
+            assert_eq!(format.extension().parse::<Format>(), Ok(format));
+        }
+        assert_eq!(
+            Format::from_path(Path::new("x.mesh")),
+            Err(FormatError::UnknownExtension {
+                path: PathBuf::from("x.mesh"),
+                extension: Some("mesh".into())
+            })
+        );
+        assert!(matches!(
+            Format::from_path(Path::new("noext")),
+            Err(FormatError::UnknownExtension {
+                extension: None,
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn an_explicit_format_must_agree_with_the_extension() {
+        let stl = Path::new("out.stl");
+        let odd = Path::new("out.mesh");
+        assert_eq!(Format::choose(None, None), Ok(Format::Obj));
+        assert_eq!(Format::choose(None, Some(stl)), Ok(Format::Stl));
+        assert_eq!(
+            Format::choose(Some(Format::Stl), Some(stl)),
+            Ok(Format::Stl)
+        );
+        assert_eq!(
+            Format::choose(Some(Format::Ply), Some(odd)),
+            Ok(Format::Ply)
+        );
+        assert_eq!(
+            Format::choose(Some(Format::Obj), Some(stl)),
+            Err(FormatError::Mismatch {
+                path: stl.into(),
+                explicit: Format::Obj,
+                implied: Format::Stl
+            })
+        );
+        assert!(Format::choose(None, Some(odd)).is_err());
+        assert_eq!(
+            Format::Glb.default_output(Path::new("examples/torus.surf")),
+            PathBuf::from("torus.glb")
+        );
+    }
+
+    #[test]
+    fn shared_positions_merge_bit_identical_vertices_only() {
+        let a = Mesh {
+            vertices: vec![DVec3::ZERO, DVec3::X, DVec3::new(-0.0, 0.0, 0.0)],
+            ..Mesh::default()
+        };
+        let b = Mesh {
+            vertices: vec![DVec3::Y, DVec3::X, DVec3::ZERO],
+            ..Mesh::default()
+        };
+        let named = [
+            NamedMesh {
+                name: "a",
+                mesh: &a,
+            },
+            NamedMesh {
+                name: "b",
+                mesh: &b,
+            },
+        ];
+        let shared = SharedPositions::new(&named);
+        // -0.0 differs from 0.0 in its bits, so it stays a vertex of its own.
+        assert_eq!(
+            shared.positions,
+            vec![DVec3::ZERO, DVec3::X, DVec3::new(-0.0, 0.0, 0.0), DVec3::Y]
+        );
+        assert_eq!(shared.index, vec![vec![0, 1, 2], vec![3, 1, 0]]);
+    }
+
+    #[test]
+    fn header_names_have_no_whitespace() {
+        assert_eq!(header_name("cap"), "cap");
+        assert_eq!(header_name("a b\nc"), "a_b_c");
+        assert_eq!(header_name(""), "mesh");
+    }
+}
