@@ -1,10 +1,22 @@
-//! `surfc mesh FILE [-o OUT] [--only NAME]... [--format F] [--json] [--quiet]`.
+//! `surfc mesh FILE [-o OUT] [--only NAME]... [--format F] [--json] [--quiet]`: every selected
+//! mesh block is built (surface oracle, curve polygons), marched and reported; then all of
+//! them go into one file, written atomically. If any mesh fails, nothing is written.
 
 use std::path::PathBuf;
+use std::time::Instant;
 
 use clap::ValueEnum;
+use serde::Serialize;
 
-use super::ColorMode;
+use super::build::{BuildError, Builder};
+use super::load::{Loaded, load, stderr_color};
+use super::{ColorMode, EXIT_INPUT, EXIT_USAGE};
+use crate::diag::{self, Diagnostic, messages};
+use crate::march::{self, MarchInput, MarchSettings, Start};
+use crate::mesh::quality::MeshReport;
+use crate::mesh::write::{Format, write_mesh_file};
+use crate::mesh::{Mesh, NamedMesh};
+use crate::sema::program::{MeshDef, SurfaceRef};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MeshFormat {
@@ -13,6 +25,18 @@ pub enum MeshFormat {
     Ply,
     Off,
     Glb,
+}
+
+impl From<MeshFormat> for Format {
+    fn from(f: MeshFormat) -> Format {
+        match f {
+            MeshFormat::Obj => Format::Obj,
+            MeshFormat::Stl => Format::Stl,
+            MeshFormat::Ply => Format::Ply,
+            MeshFormat::Off => Format::Off,
+            MeshFormat::Glb => Format::Glb,
+        }
+    }
 }
 
 #[derive(clap::Args, Debug)]
@@ -35,6 +59,214 @@ pub struct MeshArgs {
     pub quiet: bool,
 }
 
-pub fn run(_args: MeshArgs, _color: ColorMode) -> u8 {
-    super::not_yet("mesh")
+/// One mesh of the `--json` report (DESIGN.md §3).
+#[derive(Serialize)]
+struct MeshJson<'a> {
+    name: &'a str,
+    surface: &'a str,
+    step: f64,
+    #[serde(flatten)]
+    report: MeshReport,
+    seconds: f64,
+}
+
+/// A mesh block that was meshed.
+pub(crate) struct Meshed {
+    pub name: String,
+    pub surface: String,
+    pub step: f64,
+    pub mesh: Mesh,
+    pub report: MeshReport,
+    pub seconds: f64,
+}
+
+pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
+    let started = Instant::now();
+    let format = match Format::choose(args.format.map(Format::from), args.output.as_deref()) {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return EXIT_USAGE;
+        }
+    };
+    let loaded = match load(&args.file, color) {
+        Ok(l) => l,
+        Err(code) => return code,
+    };
+    let selected = match select(&loaded, &args.only) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let meshed = match mesh_blocks(&loaded, &selected, color) {
+        Ok(m) => m,
+        Err(code) => return code,
+    };
+
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| format.default_output(&args.file));
+    let named: Vec<NamedMesh> = meshed
+        .iter()
+        .map(|m| NamedMesh {
+            name: &m.name,
+            mesh: &m.mesh,
+        })
+        .collect();
+    if let Err(e) = write_mesh_file(&output, format, &named) {
+        eprintln!("error: {e}");
+        return EXIT_USAGE;
+    }
+
+    if args.json {
+        let meshes: Vec<MeshJson> = meshed
+            .iter()
+            .map(|m| MeshJson {
+                name: &m.name,
+                surface: &m.surface,
+                step: m.step,
+                report: m.report.clone(),
+                seconds: m.seconds,
+            })
+            .collect();
+        let json = serde_json::json!({
+            "meshes": meshes,
+            "seconds": started.elapsed().as_secs_f64(),
+        });
+        println!("{json}");
+    }
+    if !args.quiet {
+        for m in &meshed {
+            let shape = if m.report.boundary_edges == 0 && m.report.non_manifold_edges == 0 {
+                "watertight".to_string()
+            } else {
+                format!("{} boundary loops", m.report.boundary_loops)
+            };
+            eprintln!(
+                "{:<20} {:>9} triangles {:>8.3} s  {shape}",
+                m.name, m.report.triangles, m.seconds
+            );
+        }
+        eprintln!("wrote {}", output.display());
+    }
+    0
+}
+
+/// The mesh blocks to mesh, in file order: all, or those `--only` names. An unknown name is
+/// a usage error that lists the known ones.
+fn select<'a>(loaded: &'a Loaded, only: &[String]) -> Result<Vec<&'a MeshDef>, u8> {
+    let meshes = &loaded.program.meshes;
+    if meshes.is_empty() {
+        eprintln!(
+            "error: `{}` has no mesh block; add one, e.g. `mesh m = S {{ step: 0.1; start: (1, 0, 0); }}`",
+            loaded.path.display()
+        );
+        return Err(EXIT_INPUT);
+    }
+    for name in only {
+        if !meshes.iter().any(|m| &m.name == name) {
+            let known: Vec<&str> = meshes.iter().map(|m| m.name.as_str()).collect();
+            eprintln!(
+                "error: `{}` has no mesh block `{name}`; its mesh blocks are: {}",
+                loaded.path.display(),
+                known.join(", ")
+            );
+            return Err(EXIT_USAGE);
+        }
+    }
+    Ok(meshes
+        .iter()
+        .filter(|m| only.is_empty() || only.contains(&m.name))
+        .collect())
+}
+
+/// Meshes the blocks in order; the first failure is reported as a diagnostic (exit 1).
+pub(crate) fn mesh_blocks(
+    loaded: &Loaded,
+    blocks: &[&MeshDef],
+    color: ColorMode,
+) -> Result<Vec<Meshed>, u8> {
+    let mut builder = Builder::new(&loaded.program);
+    let mut meshed = Vec::with_capacity(blocks.len());
+    for def in blocks {
+        match mesh_block(loaded, &mut builder, def) {
+            Ok(m) => meshed.push(m),
+            Err(d) => {
+                diag::emit_stderr(
+                    &[d],
+                    &loaded.path.display().to_string(),
+                    &loaded.source,
+                    stderr_color(color),
+                );
+                return Err(EXIT_INPUT);
+            }
+        }
+    }
+    Ok(meshed)
+}
+
+fn mesh_block(loaded: &Loaded, builder: &mut Builder, def: &MeshDef) -> Result<Meshed, Diagnostic> {
+    let started = Instant::now();
+    let build_failed = |e: BuildError| messages::mesh_build_failed(&def.name, def.span, &e);
+    let mut surface = builder
+        .surface(&def.surface)
+        .map_err(|e| build_failed(e.into()))?;
+    let start = match (def.front, def.start) {
+        (Some(front), _) => Start::Front(
+            builder
+                .polygon_on(front, def.step, def.bbox, &mut surface)
+                .map_err(build_failed)?
+                .points,
+        ),
+        (None, Some(p)) => Start::Point(p),
+        // sema requires one of them; a program built elsewhere may not.
+        (None, None) => {
+            return Err(messages::mesh_failed(
+                &def.name,
+                def.span,
+                "it has neither `start` nor `front`",
+            ));
+        }
+    };
+    let mut bounds = Vec::with_capacity(def.bounds.len());
+    for &b in &def.bounds {
+        bounds.push(
+            builder
+                .polygon_on(b, def.step, def.bbox, &mut surface)
+                .map_err(build_failed)?
+                .points,
+        );
+    }
+    let input = MarchInput {
+        step: def.step,
+        start,
+        bounds,
+        bbox: def.bbox,
+        max_triangles: def.max_triangles,
+    };
+    let mesh = march::march(&mut surface, &input, &MarchSettings::default())
+        .map_err(|e| messages::mesh_failed(&def.name, def.span, &e.to_string()))?;
+    let report = MeshReport::new(&mesh, &mut surface);
+    Ok(Meshed {
+        name: def.name.clone(),
+        surface: surface_name(loaded, &def.surface),
+        step: def.step,
+        mesh,
+        report,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The name of a surface as the user wrote it: its name, or the text of an expression.
+fn surface_name(loaded: &Loaded, r: &SurfaceRef) -> String {
+    let program = &loaded.program;
+    match r {
+        SurfaceRef::Surface(id) => program.surfaces[id.index()].name.clone(),
+        SurfaceRef::Patch(id) => program.patches[id.index()].name.clone(),
+        SurfaceRef::Anonymous(e) => loaded
+            .source
+            .get(e.span.range())
+            .unwrap_or("<expression>")
+            .to_string(),
+    }
 }

@@ -60,6 +60,11 @@ pub const CODES: &[(&str, &str)] = &[
     ("E0508", "a mesh option with a value of the wrong shape"),
     ("E0509", "meshes sharing a curve with different steps"),
     ("E0510", "a patch meshed directly"),
+    ("E0601", "a mesh that could not be completed"),
+    (
+        "E0602",
+        "a surface or curve of a mesh that could not be built",
+    ),
     ("W0001", "unused definition"),
     ("W0002", "`start` ignored because `front` is given"),
 ];
@@ -587,4 +592,20 @@ pub fn start_ignored(start: Span, front: Span) -> Diagnostic {
     Diagnostic::warning("W0002", "`start` is ignored when `front` is given")
         .primary(start, "ignored")
         .secondary(front, "the front polygon is where meshing begins")
+}
+
+/// A mesh block whose triangulation could not be completed (the marcher's reason, with the
+/// coordinates where it happened).
+pub fn mesh_failed(name: &str, span: Span, reason: &str) -> Diagnostic {
+    Diagnostic::error("E0601", format!("mesh `{name}` could not be completed"))
+        .primary(span, "this mesh block")
+        .note(reason.to_string())
+        .help("a start point nearer the surface, a smaller `step`, or a `box` around the part to mesh may help")
+}
+
+/// A mesh block whose surface or curves could not be built (a curve that cannot be traced,
+/// a surface that cannot be compiled).
+pub fn mesh_build_failed(name: &str, span: Span, reason: &dyn std::fmt::Display) -> Diagnostic {
+    Diagnostic::error("E0602", format!("mesh `{name}`: {reason}"))
+        .primary(span, "in this mesh block")
 }

@@ -209,7 +209,9 @@ impl Marcher<'_> {
         self.ensure_heap(f);
         while let Some(&Reverse((_, n, v))) = self.heaps[f.index()].peek() {
             let node = NodeId(n);
-            if self.rings.alive(node) && self.rings.front(node) == f && self.version[n as usize] == v
+            if self.rings.alive(node)
+                && self.rings.front(node) == f
+                && self.version[n as usize] == v
             {
                 return Some(node);
             }
@@ -407,11 +409,12 @@ impl Marcher<'_> {
                 t2,
             }
         } else {
-            surface_point(self.surface, start, self.step, &self.s.surface_point)
-                .map_err(|source| MarchError::NewPoint {
+            surface_point(self.surface, start, self.step, &self.s.surface_point).map_err(
+                |source| MarchError::NewPoint {
                     near: start,
                     source,
-                })?
+                },
+            )?
         };
         if self.trace {
             eprintln!("march: border point {} (face axis {axis})", sp.point);
@@ -457,7 +460,10 @@ impl Marcher<'_> {
                     );
                     self.add_triangle(pa, pb, pm);
                     if self.trace {
-                        eprintln!("march: close front {} with a triangle at {}", actual.0, last_at);
+                        eprintln!(
+                            "march: close front {} with a triangle at {}",
+                            actual.0, last_at
+                        );
                     }
                 }
                 self.retire(actual);
@@ -507,7 +513,11 @@ impl Marcher<'_> {
                 continue;
             }
             if self.trace {
-                eprintln!("march: front {} becomes actual ({} points)", f.0, self.rings.len(f));
+                eprintln!(
+                    "march: front {} becomes actual ({} points)",
+                    f.0,
+                    self.rings.len(f)
+                );
             }
             for n in self.rings.walk(f) {
                 if self.checkable[n.index()] {
@@ -524,8 +534,7 @@ impl Marcher<'_> {
     fn distance_checks(&mut self, actual: FrontId) -> Result<Option<FrontId>, MarchError> {
         while let Some(a) = self.pending.pop() {
             self.pending_flag[a.index()] = false;
-            if !self.rings.alive(a) || !self.checkable[a.index()] || self.rings.front(a) != actual
-            {
+            if !self.rings.alive(a) || !self.checkable[a.index()] || self.rings.front(a) != actual {
                 continue;
             }
             let Some(b) = self.near_partner(a) else {
@@ -761,7 +770,10 @@ impl Marcher<'_> {
             return;
         }
         let n = self.rings.next(v);
-        if n != v && self.rings.point(n) == self.rings.point(v) && self.rings.len(self.rings.front(v)) > 3 {
+        if n != v
+            && self.rings.point(n) == self.rings.point(v)
+            && self.rings.len(self.rings.front(v)) > 3
+        {
             self.uncheck(n);
             self.rings.replace(n, &[]);
             self.update_angle(v);

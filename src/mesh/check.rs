@@ -143,7 +143,10 @@ pub fn check(
                 let p = mesh.vertices[e[0] as usize];
                 let d = (p - lo).min(hi - p).min_element();
                 if d > eps {
-                    v.push(Violation::BoundaryOffBox { vertex: e[0], at: p });
+                    v.push(Violation::BoundaryOffBox {
+                        vertex: e[0],
+                        at: p,
+                    });
                     break;
                 }
             }

@@ -80,17 +80,17 @@ pub fn three_cylinders(c: f64) -> Boxed {
         let g1 = DVec3::new(2.0 * x, 0.0, 2.0 * (z - 5.0));
         let g2 = DVec3::new(0.0, 2.0 * (y + 4.0), 2.0 * z);
         let g3 = DVec3::new(0.0, 2.0 * (y - 4.0), 2.0 * z);
-        vg(
-            f1 * f2 * f3 - c,
-            g1 * f2 * f3 + g2 * f1 * f3 + g3 * f1 * f2,
-        )
+        vg(f1 * f2 * f3 - c, g1 * f2 * f3 + g2 * f1 * f3 + g3 * f1 * f2)
     }))
 }
 
 /// x² + y² − r².
 pub fn cylinder(r: f64) -> Boxed {
     Box::new(NativeSurface(move |p: DVec3| {
-        vg(p.x * p.x + p.y * p.y - r * r, DVec3::new(2.0 * p.x, 2.0 * p.y, 0.0))
+        vg(
+            p.x * p.x + p.y * p.y - r * r,
+            DVec3::new(2.0 * p.x, 2.0 * p.y, 0.0),
+        )
     }))
 }
 

@@ -1,0 +1,147 @@
+//! From the checked program to what the numeric half consumes: surface oracles (compiled
+//! tapes with their `dist` children) and curve polygons. Curves are sampled once per
+//! (curve, step, box) and cached, so meshes that use the same curve get bit-identical
+//! polygon vertices and form one coherent net in the written file.
+
+use std::collections::BTreeMap;
+
+use glam::DVec3;
+
+use crate::compile::{self, CompileError};
+use crate::sema::program::{CurveId, CurveKind, Program, SurfaceRef};
+use crate::solve::curve::{self, CurveError, Polygon};
+use crate::solve::tolerance::SurfacePointTolerance;
+use crate::surface::compiled::CompiledSurface;
+use crate::surface::{ImplicitDist, PatchDist, Surface};
+
+/// Why a surface or curve could not be built.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum BuildError {
+    #[error(transparent)]
+    Compile(#[from] CompileError),
+    #[error("curve `{name}`: {source}")]
+    Curve {
+        curve: CurveId,
+        name: String,
+        source: CurveError,
+    },
+}
+
+/// An axis-aligned box (lo, hi).
+pub(crate) type Bbox = Option<(DVec3, DVec3)>;
+
+/// The cache key of a sampled curve: its id, the step's bits and the box's bits.
+type CurveKey = (CurveId, u64, Option<[u64; 6]>);
+
+/// Builds surfaces and curves of one program, caching sampled curves.
+pub(crate) struct Builder<'p> {
+    program: &'p Program,
+    curves: BTreeMap<CurveKey, Polygon>,
+}
+
+impl<'p> Builder<'p> {
+    pub(crate) fn new(program: &'p Program) -> Self {
+        Builder {
+            program,
+            curves: BTreeMap::new(),
+        }
+    }
+
+    /// The oracle of a surface: its compiled tape, `dist(S)` children as foot-point distance
+    /// surfaces over S's own compiled tape (or patch), built recursively.
+    pub(crate) fn surface(&self, r: &SurfaceRef) -> Result<CompiledSurface, CompileError> {
+        compile::compile_surface(self.program, r, &mut |target| self.dist_child(target))
+    }
+
+    fn dist_child(&self, target: &SurfaceRef) -> Result<Box<dyn Surface>, CompileError> {
+        Ok(match target {
+            SurfaceRef::Patch(id) => Box::new(PatchDist::new(Box::new(compile::compile_patch(
+                self.program,
+                *id,
+            )?))),
+            other => Box::new(ImplicitDist::new(Box::new(self.surface(other)?))),
+        })
+    }
+
+    /// The polygon of curve `id` sampled at `step` (clipped by `bbox` where the curve is
+    /// traced), as computed before for the same key. Circles are not yet projected: see
+    /// `polygon_on`.
+    pub(crate) fn curve(
+        &mut self,
+        id: CurveId,
+        step: f64,
+        bbox: Bbox,
+    ) -> Result<Polygon, BuildError> {
+        let key = (
+            id,
+            step.to_bits(),
+            bbox.map(|(lo, hi)| [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z].map(f64::to_bits)),
+        );
+        if let Some(p) = self.curves.get(&key) {
+            return Ok(p.clone());
+        }
+        let program = self.program;
+        let def = &program.curves[id.index()];
+        let fail = |source| BuildError::Curve {
+            curve: id,
+            name: def.name.clone(),
+            source,
+        };
+        let polygon = match &def.kind {
+            CurveKind::Intersection {
+                first,
+                second,
+                near,
+            } => {
+                let mut s1 = self.surface(first)?;
+                let mut s2 = self.surface(second)?;
+                curve::intersection(&mut s1, &mut s2, *near, step, bbox).map_err(fail)?
+            }
+            CurveKind::Circle {
+                center,
+                normal,
+                radius,
+            } => curve::circle(*center, *normal, *radius, step).map_err(fail)?,
+            CurveKind::Boundary(patch) => {
+                let mut patch = compile::compile_patch(self.program, *patch)?;
+                curve::boundary(&mut patch, step).map_err(fail)?
+            }
+            CurveKind::Reverse(inner) => curve::reverse(&self.curve(*inner, step, bbox)?),
+        };
+        self.curves.insert(key, polygon.clone());
+        Ok(polygon)
+    }
+
+    /// The polygon of curve `id` as a front or bound of a mesh of `surface`: a circle's
+    /// vertices are projected onto the surface (DESIGN.md §2); intersection curves and patch
+    /// boundaries already lie on their surfaces and are used as sampled, so that every mesh
+    /// that shares them shares their vertices exactly.
+    pub(crate) fn polygon_on(
+        &mut self,
+        id: CurveId,
+        step: f64,
+        bbox: Bbox,
+        surface: &mut dyn Surface,
+    ) -> Result<Polygon, BuildError> {
+        let polygon = self.curve(id, step, bbox)?;
+        if self.is_circle(id) {
+            let name = self.program.curves[id.index()].name.clone();
+            return curve::project_onto(surface, &polygon, step, &SurfacePointTolerance::default())
+                .map_err(|source| BuildError::Curve {
+                    curve: id,
+                    name,
+                    source,
+                });
+        }
+        Ok(polygon)
+    }
+
+    /// Whether the curve is a circle, possibly reversed.
+    fn is_circle(&self, id: CurveId) -> bool {
+        match &self.program.curves[id.index()].kind {
+            CurveKind::Circle { .. } => true,
+            CurveKind::Reverse(inner) => self.is_circle(*inner),
+            _ => false,
+        }
+    }
+}
