@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::ValueEnum;
+use glam::DVec3;
 use serde::Serialize;
 
 use super::build::{BuildError, Builder};
@@ -16,7 +17,7 @@ use crate::march::{self, MarchInput, MarchSettings, Start};
 use crate::mesh::quality::MeshReport;
 use crate::mesh::write::{Format, write_mesh_file};
 use crate::mesh::{Mesh, NamedMesh};
-use crate::sema::program::{MeshDef, SurfaceRef};
+use crate::sema::program::{MeshDef, Program, SurfaceRef};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MeshFormat {
@@ -71,10 +72,13 @@ struct MeshJson<'a> {
 }
 
 /// A mesh block that was meshed.
-pub(crate) struct Meshed {
+#[derive(Clone, Debug)]
+pub struct Meshed {
     pub name: String,
     pub surface: String,
     pub step: f64,
+    /// The block's `box`, if it has one.
+    pub bbox: Option<(DVec3, DVec3)>,
     pub mesh: Mesh,
     pub report: MeshReport,
     pub seconds: f64,
@@ -181,31 +185,50 @@ fn select<'a>(loaded: &'a Loaded, only: &[String]) -> Result<Vec<&'a MeshDef>, u
 }
 
 /// Meshes the blocks in order; the first failure is reported as a diagnostic (exit 1).
-pub(crate) fn mesh_blocks(
-    loaded: &Loaded,
-    blocks: &[&MeshDef],
-    color: ColorMode,
-) -> Result<Vec<Meshed>, u8> {
-    let mut builder = Builder::new(&loaded.program);
-    let mut meshed = Vec::with_capacity(blocks.len());
-    for def in blocks {
-        match mesh_block(loaded, &mut builder, def) {
-            Ok(m) => meshed.push(m),
-            Err(d) => {
-                diag::emit_stderr(
-                    &[d],
-                    &loaded.path.display().to_string(),
-                    &loaded.source,
-                    stderr_color(color),
-                );
-                return Err(EXIT_INPUT);
-            }
-        }
-    }
-    Ok(meshed)
+fn mesh_blocks(loaded: &Loaded, blocks: &[&MeshDef], color: ColorMode) -> Result<Vec<Meshed>, u8> {
+    mesh_program(&loaded.program, &loaded.source, blocks).map_err(|d| {
+        diag::emit_stderr(
+            &[d],
+            &loaded.path.display().to_string(),
+            &loaded.source,
+            stderr_color(color),
+        );
+        EXIT_INPUT
+    })
 }
 
-fn mesh_block(loaded: &Loaded, builder: &mut Builder, def: &MeshDef) -> Result<Meshed, Diagnostic> {
+/// Parses, checks and meshes every mesh block of `source`: the library form of
+/// `surfc mesh`, for tests and embedders. Err holds every diagnostic of the file, or the one
+/// that says why a mesh could not be completed.
+pub fn mesh_source(source: &str) -> Result<Vec<Meshed>, Vec<Diagnostic>> {
+    let (checked, diags) = super::load::analyse(source);
+    match checked {
+        Some((_, program)) if !diag::has_errors(&diags) => {
+            let blocks: Vec<&MeshDef> = program.meshes.iter().collect();
+            mesh_program(&program, source, &blocks).map_err(|d| vec![d])
+        }
+        _ => Err(diags),
+    }
+}
+
+fn mesh_program(
+    program: &Program,
+    source: &str,
+    blocks: &[&MeshDef],
+) -> Result<Vec<Meshed>, Diagnostic> {
+    let mut builder = Builder::new(program);
+    blocks
+        .iter()
+        .map(|def| mesh_block(program, source, &mut builder, def))
+        .collect()
+}
+
+fn mesh_block(
+    program: &Program,
+    source: &str,
+    builder: &mut Builder,
+    def: &MeshDef,
+) -> Result<Meshed, Diagnostic> {
     let started = Instant::now();
     let build_failed = |e: BuildError| messages::mesh_build_failed(&def.name, def.span, &e);
     let mut surface = builder
@@ -249,8 +272,9 @@ fn mesh_block(loaded: &Loaded, builder: &mut Builder, def: &MeshDef) -> Result<M
     let report = MeshReport::new(&mesh, &mut surface);
     Ok(Meshed {
         name: def.name.clone(),
-        surface: surface_name(loaded, &def.surface),
+        surface: surface_name(program, source, &def.surface),
         step: def.step,
+        bbox: def.bbox,
         mesh,
         report,
         seconds: started.elapsed().as_secs_f64(),
@@ -258,13 +282,11 @@ fn mesh_block(loaded: &Loaded, builder: &mut Builder, def: &MeshDef) -> Result<M
 }
 
 /// The name of a surface as the user wrote it: its name, or the text of an expression.
-fn surface_name(loaded: &Loaded, r: &SurfaceRef) -> String {
-    let program = &loaded.program;
+fn surface_name(program: &Program, source: &str, r: &SurfaceRef) -> String {
     match r {
         SurfaceRef::Surface(id) => program.surfaces[id.index()].name.clone(),
         SurfaceRef::Patch(id) => program.patches[id.index()].name.clone(),
-        SurfaceRef::Anonymous(e) => loaded
-            .source
+        SurfaceRef::Anonymous(e) => source
             .get(e.span.range())
             .unwrap_or("<expression>")
             .to_string(),

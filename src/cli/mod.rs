@@ -12,7 +12,7 @@ mod check;
 mod eval;
 mod fmt;
 mod load;
-mod mesh;
+pub mod mesh;
 mod render;
 
 /// Exit code: the input is wrong, or a mesh could not be completed.
