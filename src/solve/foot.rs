@@ -16,6 +16,8 @@
 //! ±|x − q| with the sign of (x − q)·normal. Every step decreases |x − q| (backtracking), so the
 //! search cannot cycle; it ends in a foot point or a typed error saying why.
 
+use std::cmp::Ordering;
+
 use glam::DVec3;
 
 use super::surfacepoint::{SurfacePointError, surface_point, tangent_frame};
@@ -298,87 +300,163 @@ fn shifted_solve(m: [f64; 3], g: [f64; 3], rhs: [f64; 2], tol: &FootTolerance) -
     ]
 }
 
-/// The foot point of x on the patch. With `start`, one Newton run from that (u, v) (a warm
-/// start); without, the pre-search: the distance at the (grid+1)² nodes of the declared domain
-/// extended by `extension` on every side, Newton from the `candidates` best discrete local
-/// minima, the nearest result wins (ties: the better-ranked seed).
+/// The pre-search grid of a patch: the (grid+1)² points of the declared domain extended by
+/// `extension` on every side. It does not depend on the query, so a distance surface builds
+/// it once.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PatchGrid {
+    side: usize,
+    origin: (f64, f64),
+    spacing: (f64, f64),
+    points: Vec<DVec3>,
+    /// The longest edge between neighbouring grid points: any patch point of the region is
+    /// within about this of a grid point.
+    cell: f64,
+    /// Central-difference steps in (u, v).
+    steps: (f64, f64),
+}
+
+impl PatchGrid {
+    /// Samples the patch over its extended domain. Grid points where the patch is not finite
+    /// are kept as NaN and never seed a search.
+    pub fn new(patch: &mut dyn Patch, tol: &PatchFootTolerance) -> Result<Self, PatchFootError> {
+        let (ud, vd) = patch.domain();
+        let valid = |(lo, hi): (f64, f64)| lo.is_finite() && hi.is_finite() && hi > lo;
+        if !valid(ud) || !valid(vd) {
+            return Err(PatchFootError::BadDomain { u: ud, v: vd });
+        }
+        let n = tol.grid.max(1) as usize;
+        let side = n + 1;
+        let (eu, ev) = (tol.extension * (ud.1 - ud.0), tol.extension * (vd.1 - vd.0));
+        let origin = (ud.0 - eu, vd.0 - ev);
+        let spacing = (
+            (ud.1 - ud.0 + 2.0 * eu) / n as f64,
+            (vd.1 - vd.0 + 2.0 * ev) / n as f64,
+        );
+        let mut points = Vec::with_capacity(side * side);
+        for i in 0..side {
+            for j in 0..side {
+                let u = origin.0 + i as f64 * spacing.0;
+                let v = origin.1 + j as f64 * spacing.1;
+                let p = patch.point_jacobian(u, v).point;
+                points.push(if p.is_finite() { p } else { DVec3::NAN });
+            }
+        }
+        let mut cell: f64 = 0.0;
+        for i in 0..side {
+            for j in 0..side {
+                let p = points[i * side + j];
+                if i + 1 < side {
+                    cell = cell.max((points[(i + 1) * side + j] - p).length());
+                }
+                if j + 1 < side {
+                    cell = cell.max((points[i * side + j + 1] - p).length());
+                }
+            }
+        }
+        Ok(PatchGrid {
+            side,
+            origin,
+            spacing,
+            points,
+            cell,
+            steps: (
+                tol.foot.hessian_step * (ud.1 - ud.0),
+                tol.foot.hessian_step * (vd.1 - vd.0),
+            ),
+        })
+    }
+
+    fn param(&self, k: usize) -> (f64, f64) {
+        let (i, j) = (k / self.side, k % self.side);
+        (
+            self.origin.0 + i as f64 * self.spacing.0,
+            self.origin.1 + j as f64 * self.spacing.1,
+        )
+    }
+
+    /// Grid indices of the discrete local minima of |P − x|², in the strict order (d², index)
+    /// so a plateau yields one seed, nearest first, with their distances.
+    fn seeds(&self, x: DVec3) -> Vec<(f64, usize)> {
+        let side = self.side;
+        let dist2: Vec<f64> = self
+            .points
+            .iter()
+            .map(|p| {
+                let d = (*p - x).length_squared();
+                if d.is_finite() { d } else { f64::INFINITY }
+            })
+            .collect();
+        let key = |k: usize| (dist2[k], k);
+        let less = |a: usize, b: usize| key(a).partial_cmp(&key(b)) == Some(Ordering::Less);
+        let mut seeds: Vec<(f64, usize)> = (0..side * side)
+            .filter(|&k| {
+                let (i, j) = (k / side, k % side);
+                dist2[k].is_finite()
+                    && (i.saturating_sub(1)..=(i + 1).min(side - 1)).all(|a| {
+                        (j.saturating_sub(1)..=(j + 1).min(side - 1)).all(|b| {
+                            let o = a * side + b;
+                            o == k || less(k, o)
+                        })
+                    })
+            })
+            .map(|k| (dist2[k].sqrt(), k))
+            .collect();
+        seeds.sort_by(|a, b| a.partial_cmp(b).unwrap_or(Ordering::Equal));
+        seeds
+    }
+}
+
+/// The foot point of x on the patch: Newton from the `candidates` best discrete local minima
+/// of the distance to the grid points (nearest first), the nearest result winning (ties: the
+/// earlier run). `warm`, a previous foot's (u, v), runs first; it only sharpens the bound that
+/// lets a seed be skipped when its grid distance minus the grid's cell size already exceeds
+/// the best distance found (its basin cannot hold a nearer point), so warm and cold searches
+/// return the same foot point.
 pub fn patch_foot(
     patch: &mut dyn Patch,
     x: DVec3,
-    start: Option<(f64, f64)>,
+    warm: Option<(f64, f64)>,
+    grid: &PatchGrid,
     tol: &PatchFootTolerance,
 ) -> Result<PatchFoot, PatchFootError> {
     if !x.is_finite() {
         return Err(PatchFootError::NotFinite { x });
     }
-    let (ud, vd) = patch.domain();
-    let valid = |(lo, hi): (f64, f64)| lo.is_finite() && hi.is_finite() && hi > lo;
-    if !valid(ud) || !valid(vd) {
-        return Err(PatchFootError::BadDomain { u: ud, v: vd });
-    }
-    let steps = (
-        tol.foot.hessian_step * (ud.1 - ud.0),
-        tol.foot.hessian_step * (vd.1 - vd.0),
-    );
-    if let Some(uv) = start {
-        return patch_newton(patch, x, uv, steps, tol);
-    }
-    let n = tol.grid.max(1) as usize;
-    let (eu, ev) = (tol.extension * (ud.1 - ud.0), tol.extension * (vd.1 - vd.0));
-    let (u0, v0) = (ud.0 - eu, vd.0 - ev);
-    let (du, dv) = (
-        (ud.1 - ud.0 + 2.0 * eu) / n as f64,
-        (vd.1 - vd.0 + 2.0 * ev) / n as f64,
-    );
-    let param = |i: usize, j: usize| (u0 + i as f64 * du, v0 + j as f64 * dv);
-    let side = n + 1;
-    let mut dist2 = Vec::with_capacity(side * side);
-    for i in 0..side {
-        for j in 0..side {
-            let (u, v) = param(i, j);
-            let d2 = (patch.point_jacobian(u, v).point - x).length_squared();
-            dist2.push(if d2.is_finite() { d2 } else { f64::INFINITY });
-        }
-    }
-    // Discrete local minima in the strict order (d², index), so a plateau yields one seed.
-    let key = |k: usize| (dist2[k], k);
-    let mut seeds: Vec<usize> = (0..side * side)
-        .filter(|&k| {
-            let (i, j) = (k / side, k % side);
-            dist2[k].is_finite()
-                && (i.saturating_sub(1)..=(i + 1).min(n)).all(|a| {
-                    (j.saturating_sub(1)..=(j + 1).min(n)).all(|b| {
-                        let o = a * side + b;
-                        o == k || key(k).partial_cmp(&key(o)) == Some(std::cmp::Ordering::Less)
-                    })
-                })
-        })
-        .collect();
-    seeds.sort_by(|&a, &b| {
-        key(a)
-            .partial_cmp(&key(b))
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
-    seeds.truncate(tol.candidates.max(1) as usize);
     let mut best: Option<PatchFoot> = None;
     let mut first_error = None;
-    for k in seeds {
-        match patch_newton(patch, x, param(k / side, k % side), steps, tol) {
+    let mut consider =
+        |result: Result<PatchFoot, PatchFootError>, best: &mut Option<PatchFoot>| match result {
             Ok(f) => {
                 if best.is_none_or(|b| f.distance.abs() < b.distance.abs()) {
-                    best = Some(f);
+                    *best = Some(f);
                 }
             }
             Err(e) => {
                 first_error.get_or_insert(e);
             }
+        };
+    if let Some(uv) = warm {
+        consider(patch_newton(patch, x, uv, grid.steps, tol), &mut best);
+    }
+    for (d, k) in grid
+        .seeds(x)
+        .into_iter()
+        .take(tol.candidates.max(1) as usize)
+    {
+        if best.is_some_and(|b| d - grid.cell > b.distance.abs()) {
+            break;
         }
+        consider(
+            patch_newton(patch, x, grid.param(k), grid.steps, tol),
+            &mut best,
+        );
     }
     match (best, first_error) {
         (Some(f), _) => Ok(f),
         (None, Some(e)) => Err(e),
         (None, None) => {
-            let (u, v) = param(0, 0);
+            let (u, v) = grid.param(0);
             Err(PatchFootError::PatchNotFinite { u, v })
         }
     }

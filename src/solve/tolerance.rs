@@ -82,8 +82,10 @@ impl Default for FootTolerance {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PatchFootTolerance {
     /// Convergence, iteration cap, curvature step (here relative to the side lengths of the
-    /// declared domain, in parameter units), clamping, backtracking and warm-start settings,
-    /// with the meanings (and defaults) of `FootTolerance`; its `surface_point` is unused.
+    /// declared domain, in parameter units), clamping, backtracking and warm-start radius,
+    /// with the meanings (and defaults) of `FootTolerance`; its `surface_point` and
+    /// `warm_min_eigenvalue` are unused (a patch's warm start is only the first of several
+    /// seeds, see `solve::foot::patch_foot`).
     pub foot: FootTolerance,
     /// Cells per side of the pre-search grid over the extended domain. Default 32
     /// ((32+1)² = 1089 patch evaluations per cold query).

@@ -17,7 +17,9 @@
 use glam::DVec3;
 
 use super::{Patch, Surface, ValueGrad};
-use crate::solve::foot::{Foot, FootError, PatchFoot, PatchFootError, foot_point, patch_foot};
+use crate::solve::foot::{
+    Foot, FootError, PatchFoot, PatchFootError, PatchGrid, foot_point, patch_foot,
+};
 use crate::solve::tolerance::{FootTolerance, PatchFootTolerance};
 
 /// What a NaN-reporting surface returns.
@@ -94,6 +96,8 @@ pub struct PatchDist {
     pub patch: Box<dyn Patch>,
     /// Foot-point settings (pre-search grid and region, Newton, warm start).
     pub tolerance: PatchFootTolerance,
+    /// Built on the first query.
+    grid: Option<PatchGrid>,
     warm: Option<(DVec3, (f64, f64))>,
 }
 
@@ -107,31 +111,31 @@ impl PatchDist {
         PatchDist {
             patch,
             tolerance,
+            grid: None,
             warm: None,
         }
     }
 
-    /// The foot point of x, with the reason when there is none. Uses and updates the warm
-    /// start.
+    /// The foot point of x, with the reason when there is none. The previous query's (u, v)
+    /// seeds the first Newton run when x is within `warm_radius · scale` of it; the grid seeds
+    /// follow (see `solve::foot::patch_foot`), so the answer does not depend on the warm start
+    /// beyond the convergence tolerance.
     pub fn foot(&mut self, x: DVec3) -> Result<PatchFoot, PatchFootError> {
         let tol = self.tolerance;
+        let grid = match &mut self.grid {
+            Some(grid) => grid,
+            None => self.grid.insert(PatchGrid::new(self.patch.as_mut(), &tol)?),
+        };
         let warm = self
             .warm
             .filter(|(wx, _)| (x - *wx).length() <= tol.foot.warm_radius * tol.foot.scale)
             .map(|(_, uv)| uv);
-        let result = match warm {
-            Some(uv) => patch_foot(self.patch.as_mut(), x, Some(uv), &tol)
-                .or_else(|_| patch_foot(self.patch.as_mut(), x, None, &tol)),
-            None => patch_foot(self.patch.as_mut(), x, None, &tol),
-        };
-        self.warm = match &result {
-            Ok(f) if f.min_eigenvalue >= tol.foot.warm_min_eigenvalue => Some((x, (f.u, f.v))),
-            _ => None,
-        };
+        let result = patch_foot(self.patch.as_mut(), x, warm, grid, &tol);
+        self.warm = result.as_ref().ok().map(|f| (x, (f.u, f.v)));
         result
     }
 
-    /// Forget the warm start (the next query runs the pre-search).
+    /// Forget the warm start.
     pub fn clear_warm_start(&mut self) {
         self.warm = None;
     }
