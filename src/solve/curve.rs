@@ -226,8 +226,15 @@ impl Pair<'_> {
             let len = delta.length();
             p -= delta;
             if len <= self.floor(p) {
-                let t = self.tangent(p)?;
-                debug_assert!(t.is_finite());
+                // A stationary point of the (pseudo-inverse) iteration need not lie on both
+                // surfaces: where the normals are parallel it is a least-squares compromise.
+                let (a, b) = self.eval(p)?;
+                let residual =
+                    (a.value.abs() / a.gradient.length()).max(b.value.abs() / b.gradient.length());
+                if residual > self.tol.meet_residual * self.step {
+                    break;
+                }
+                self.tangent(p)?;
                 return Ok(p);
             }
         }

@@ -125,6 +125,9 @@ pub struct CurveTolerance {
     /// Newton iterations of the first search for a point on both surfaces from `near`.
     /// Default 200.
     pub max_seek_iterations: u32,
+    /// Where that search stalls, the point counts as on both surfaces only if its first-order
+    /// distance max |f_i|/|∇f_i| is below `meet_residual * δ`. Default 1e-6.
+    pub meet_residual: f64,
     /// The sine of the angle between the two normals below which the tangent ∇f1 × ∇f2
     /// counts as vanishing (surfaces touching, or a singular point). Default 1e-6.
     pub tangent_sine: f64,
@@ -156,6 +159,7 @@ impl Default for CurveTolerance {
             relative_step: 1e-12,
             max_corrector_iterations: 32,
             max_seek_iterations: 200,
+            meet_residual: 1e-6,
             tangent_sine: 1e-6,
             substeps: 4,
             max_halvings: 20,
