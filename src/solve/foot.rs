@@ -44,6 +44,40 @@ pub struct Foot {
     /// Smallest eigenvalue of I + d·W at q (1 on a plane, 0 when x is at a focal point, < 0
     /// beyond it); NaN when the curvature could not be estimated. Decides warm starts.
     pub min_eigenvalue: f64,
+    /// The last curvature estimate (near q), for the next warm start.
+    pub curvature: Option<Curvature>,
+}
+
+/// The Weingarten map W = H_T/|∇f| of an implicit surface at a point `at`, as the symmetric
+/// matrix [w11, w12, w22] in the tangent frame (t1, t2) there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Curvature {
+    pub at: DVec3,
+    pub t1: DVec3,
+    pub t2: DVec3,
+    pub w: [f64; 3],
+}
+
+impl Curvature {
+    /// W in another (nearby) orthonormal tangent frame: w'_ij = t'_i · W t'_j with W extended
+    /// as Σ w_kl t_k t_lᵀ.
+    fn in_frame(&self, s1: DVec3, s2: DVec3) -> [f64; 3] {
+        let a = [
+            [s1.dot(self.t1), s1.dot(self.t2)],
+            [s2.dot(self.t1), s2.dot(self.t2)],
+        ];
+        let w = [[self.w[0], self.w[1]], [self.w[1], self.w[2]]];
+        let entry = |i: usize, j: usize| {
+            let mut sum = 0.0;
+            for (k, wk) in w.iter().enumerate() {
+                for (l, wkl) in wk.iter().enumerate() {
+                    sum += a[i][k] * wkl * a[j][l];
+                }
+            }
+            sum
+        };
+        [entry(0, 0), entry(0, 1), entry(1, 1)]
+    }
 }
 
 /// Why a foot-point search on an implicit surface failed.
@@ -132,6 +166,20 @@ pub fn foot_point(
     start: Option<DVec3>,
     tol: &FootTolerance,
 ) -> Result<Foot, FootError> {
+    foot_point_hinted(surface, x, start, None, tol)
+}
+
+/// `foot_point` with a curvature estimate from an earlier search (a warm start's), reused
+/// while the iterate stays within `curvature_reuse · scale` of where it was measured. The
+/// estimate only sets the speed of convergence, never the foot point.
+pub fn foot_point_hinted(
+    surface: &mut dyn Surface,
+    x: DVec3,
+    start: Option<DVec3>,
+    curvature: Option<Curvature>,
+    tol: &FootTolerance,
+) -> Result<Foot, FootError> {
+    let mut shape = curvature;
     if !x.is_finite() {
         return Err(FootError::NotFinite { x });
     }
@@ -183,21 +231,38 @@ pub fn foot_point(
         // to the tangent plane), symmetric, in the frame (t1, t2).
         let mut m = [1.0, 0.0, 1.0];
         if rn != 0.0 && (!converged || min_eigenvalue.is_nan()) {
-            let h = tol.hessian_step * scale;
-            let c1 = hessian_column(surface, q, t1, h);
-            let c2 = hessian_column(surface, q, t2, h);
-            if let (Some(c1), Some(c2)) = (c1, c2) {
-                let k = rn / gl;
-                m = [
-                    1.0 + k * t1.dot(c1),
-                    k * 0.5 * (t2.dot(c1) + t1.dot(c2)),
-                    1.0 + k * t2.dot(c2),
-                ];
-                min_eigenvalue = sym_min_eigenvalue(m);
-            } else {
+            let reusable = shape.filter(|c| (c.at - q).length() <= tol.curvature_reuse * scale);
+            let here = match reusable {
+                Some(c) => Some(c),
+                None => {
+                    let h = tol.hessian_step * scale;
+                    let c1 = hessian_column(surface, q, t1, h);
+                    let c2 = hessian_column(surface, q, t2, h);
+                    match (c1, c2) {
+                        (Some(c1), Some(c2)) => Some(Curvature {
+                            at: q,
+                            t1,
+                            t2,
+                            w: [
+                                t1.dot(c1) / gl,
+                                0.5 * (t2.dot(c1) + t1.dot(c2)) / gl,
+                                t2.dot(c2) / gl,
+                            ],
+                        }),
+                        _ => None,
+                    }
+                }
+            };
+            shape = here;
+            match here {
+                Some(c) => {
+                    let w = c.in_frame(t1, t2);
+                    m = [1.0 + rn * w[0], rn * w[1], 1.0 + rn * w[2]];
+                    min_eigenvalue = sym_min_eigenvalue(m);
+                }
                 // No curvature where f is undefined nearby: plain tangent-plane steps, and no
                 // warm start from here.
-                min_eigenvalue = f64::NAN;
+                None => min_eigenvalue = f64::NAN,
             }
         } else if rn == 0.0 {
             min_eigenvalue = 1.0;
@@ -212,6 +277,7 @@ pub fn foot_point(
                 iterations: iteration,
                 residual,
                 min_eigenvalue,
+                curvature: shape,
             });
         }
         let w = shifted_solve(m, [1.0, 0.0, 1.0], [rt.dot(t1), rt.dot(t2)], tol);

@@ -42,6 +42,11 @@ pub struct FootTolerance {
     /// surface at q, relative to `scale`. Default 1e-5: truncation error ~1e-10 relative,
     /// rounding error ~1e-11; the estimate only sets the convergence rate, never the result.
     pub hessian_step: f64,
+    /// A curvature estimate is reused (not re-measured, saving four gradient evaluations)
+    /// while the iterate stays within `curvature_reuse * scale` of where it was measured,
+    /// also across warm-started queries. Default 1e-3: the outdated estimate then slows the
+    /// quadratic convergence to a linear rate of ~1e-3·|d|·|∇κ|, still a few iterations.
+    pub curvature_reuse: f64,
     /// Smallest eigenvalue the tangential Newton matrix I + d·W (W the Weingarten map, d the
     /// signed distance) is allowed before it is clamped, dimensionless. Near a focal point it
     /// tends to 0 and a raw Newton step would be huge. Default 0.25: a step is at most 4× the
@@ -69,6 +74,7 @@ impl Default for FootTolerance {
             relative_residual: 1e-12,
             max_iterations: 50,
             hessian_step: 1e-5,
+            curvature_reuse: 1e-3,
             min_newton_eigenvalue: 0.25,
             max_backtracks: 30,
             warm_radius: 1.0,

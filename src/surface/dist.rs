@@ -18,7 +18,8 @@ use glam::DVec3;
 
 use super::{Patch, Surface, ValueGrad};
 use crate::solve::foot::{
-    Foot, FootError, PatchFoot, PatchFootError, PatchGrid, foot_point, patch_foot,
+    Curvature, Foot, FootError, PatchFoot, PatchFootError, PatchGrid, foot_point,
+    foot_point_hinted, patch_foot,
 };
 use crate::solve::tolerance::{FootTolerance, PatchFootTolerance};
 
@@ -34,7 +35,7 @@ pub struct ImplicitDist {
     pub inner: Box<dyn Surface>,
     /// Foot-point settings; `tolerance.scale` should be the mesh step when it is known.
     pub tolerance: FootTolerance,
-    warm: Option<(DVec3, DVec3)>,
+    warm: Option<(DVec3, DVec3, Option<Curvature>)>,
 }
 
 impl ImplicitDist {
@@ -57,15 +58,16 @@ impl ImplicitDist {
         let tol = self.tolerance;
         let warm = self
             .warm
-            .filter(|(wx, _)| (x - *wx).length() <= tol.warm_radius * tol.scale)
-            .map(|(_, q)| q);
+            .filter(|(wx, _, _)| (x - *wx).length() <= tol.warm_radius * tol.scale);
         let result = match warm {
-            Some(q) => foot_point(self.inner.as_mut(), x, Some(q), &tol)
-                .or_else(|_| foot_point(self.inner.as_mut(), x, None, &tol)),
+            Some((_, q, curvature)) => {
+                foot_point_hinted(self.inner.as_mut(), x, Some(q), curvature, &tol)
+                    .or_else(|_| foot_point(self.inner.as_mut(), x, None, &tol))
+            }
             None => foot_point(self.inner.as_mut(), x, None, &tol),
         };
         self.warm = match &result {
-            Ok(f) if f.min_eigenvalue >= tol.warm_min_eigenvalue => Some((x, f.point)),
+            Ok(f) if f.min_eigenvalue >= tol.warm_min_eigenvalue => Some((x, f.point, f.curvature)),
             _ => None,
         };
         result
