@@ -9,7 +9,7 @@
 //!   for |d·κ| < 1 and oscillates beyond (outside a thin torus tube, say).
 //! - Parametric patch ([`patch_foot`]): Newton on (u, v) for ½|P(u, v) − x|², second
 //!   derivatives by central differences, seeded by a coarse grid pre-search over the extended
-//!   declared domain (or a warm start).
+//!   declared domain, a warm start running first (see [`patch_foot`]).
 //!
 //! Invariants of a returned foot: |P_T(x − q)| ≤ max(relative_residual·scale, rounding floor);
 //! `normal` is a unit vector (∇f/|∇f|, or (Pu × Pv)/|Pu × Pv| for patches); `distance` is

@@ -7,12 +7,15 @@
 //! Failure is reported through the `Surface` contract: value and gradient NaN, which callers
 //! detect. Direct callers who want the reason use `foot`, which returns the typed error.
 //!
-//! Warm start: each surface remembers its last query and foot point; a query within
-//! `warm_radius · scale` of the last one starts from there, but only if the last foot point was
-//! regular (x well inside the tubular neighbourhood, see `FootTolerance::warm_min_eigenvalue`),
-//! so warm and cold searches converge to the same foot point. A failed warm search is
-//! repeated cold. The cache makes a surface's answers depend on the order of queries only at
-//! the level of the convergence tolerance, and the order is itself deterministic.
+//! Warm start: each surface remembers its last query and foot point. `ImplicitDist` starts a
+//! query within `warm_radius · scale` of the last one from the last foot point (and its
+//! curvature), but only if that foot point was regular (x well inside the tubular
+//! neighbourhood, see `FootTolerance::warm_min_eigenvalue`), so warm and cold searches converge
+//! to the same foot point; a failed warm search is repeated cold. `PatchDist` runs Newton from
+//! the last (u, v) first and then from the pre-search seeds, so a warm start only saves work.
+//! Answers depend on the order of queries only at the level of the convergence tolerance, and
+//! that order is itself deterministic.
+//! The algorithms, regions and conventions are described in `docs/implicitization.md`.
 
 use glam::DVec3;
 
