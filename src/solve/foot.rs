@@ -28,6 +28,11 @@ use crate::surface::{Patch, PatchJet, Surface};
 /// residual this small is as converged as floating point allows.
 const ROUNDING: f64 = 64.0 * f64::EPSILON;
 
+/// Where the gradient vanishes at the start, the search restarts this far (relative to the
+/// scale) in a fixed, deliberately unaxial unit direction.
+const OFF_CENTRE: f64 = 1e-3;
+const OFF_CENTRE_DIRECTION: DVec3 = DVec3::new(0.6, 0.48, 0.64);
+
 /// A foot point on an implicit surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Foot {
@@ -193,7 +198,16 @@ pub fn foot_point_hinted(
                 source,
             })
     };
-    let mut q = project(surface, start.unwrap_or(x), 0)?;
+    let q0 = start.unwrap_or(x);
+    let mut q = match project(surface, q0, 0) {
+        // ∇f = 0 at the start (the centre of a sphere, a point of the medial axis where f is
+        // extremal): any nearest point will do, so start a little off it in a fixed direction.
+        Err(FootError::SurfacePoint {
+            source: SurfacePointError::ZeroGradient { .. },
+            ..
+        }) => project(surface, q0 + OFF_CENTRE * scale * OFF_CENTRE_DIRECTION, 0)?,
+        other => other?,
+    };
     let mut min_eigenvalue = f64::NAN;
     let mut residual = f64::INFINITY;
     for iteration in 0..tol.max_iterations {
@@ -230,7 +244,10 @@ pub fn foot_point_hinted(
         // The tangential Newton matrix M = I + (rn/|∇f|)·H_T (H_T: the Hessian of f restricted
         // to the tangent plane), symmetric, in the frame (t1, t2).
         let mut m = [1.0, 0.0, 1.0];
-        if rn != 0.0 && (!converged || min_eigenvalue.is_nan()) {
+        // Needed for the step and, at convergence, for the saddle test and warm starts; so
+        // it must be measured near this q (an estimate from the previous iterate may belong
+        // to another part of the surface).
+        if rn != 0.0 {
             let reusable = shape.filter(|c| (c.at - q).length() <= tol.curvature_reuse * scale);
             let here = match reusable {
                 Some(c) => Some(c),
@@ -268,6 +285,33 @@ pub fn foot_point_hinted(
             min_eigenvalue = 1.0;
         }
         if converged {
+            // A critical point where I + d·W has a negative eigenvalue is a saddle (or a
+            // maximum) of the distance — the far side of a torus for x in a symmetry plane —
+            // not a foot point: step off along that eigenvector, downhill.
+            if min_eigenvalue < -tol.saddle_eigenvalue
+                && let Some(c) = shape
+            {
+                let w = c.in_frame(t1, t2);
+                let mm = [1.0 + rn * w[0], rn * w[1], 1.0 + rn * w[2]];
+                let e = min_eigenvector(mm, [1.0, 0.0, 1.0]);
+                let mut step = 0.5 * r.length() * (e[0] * t1 + e[1] * t2);
+                let d0 = r.length();
+                let mut escaped = false;
+                for _ in 0..=tol.max_backtracks {
+                    if let Ok(p) = project(surface, q + step, iteration)
+                        && (x - p).length() < d0
+                    {
+                        q = p;
+                        escaped = true;
+                        break;
+                    }
+                    step *= 0.5;
+                }
+                if escaped {
+                    min_eigenvalue = f64::NAN;
+                    continue;
+                }
+            }
             let len = r.length();
             let distance = if rn < 0.0 { -len } else { len };
             return Ok(Foot {
@@ -283,6 +327,10 @@ pub fn foot_point_hinted(
         let w = shifted_solve(m, [1.0, 0.0, 1.0], [rt.dot(t1), rt.dot(t2)], tol);
         let mut step = w[0] * t1 + w[1] * t2;
         let d0 = r.length();
+        // The nearest point is within 2|x − q| of q: longer steps only overshoot.
+        if step.length() > 2.0 * d0 {
+            step *= 2.0 * d0 / step.length();
+        }
         let mut next = None;
         let mut last_error = None;
         for _ in 0..=tol.max_backtracks {
@@ -338,6 +386,33 @@ fn generalized_min_eigenvalue(h: [f64; 3], g: [f64; 3]) -> f64 {
     let s = g[0] * h[2] + g[2] * h[0] - 2.0 * g[1] * h[1];
     let disc = (s * s - 4.0 * det_g * det_h).max(0.0);
     (s - disc.sqrt()) / (2.0 * det_g)
+}
+
+/// A unit-length (in the Euclidean norm of the coefficients) eigenvector of the smallest
+/// generalized eigenvalue of (H, G), both [m11, m12, m22]; its sign is fixed by the formula,
+/// so the choice is deterministic.
+fn min_eigenvector(h: [f64; 3], g: [f64; 3]) -> [f64; 2] {
+    let lambda = generalized_min_eigenvalue(h, g);
+    let a = [
+        h[0] - lambda * g[0],
+        h[1] - lambda * g[1],
+        h[2] - lambda * g[2],
+    ];
+    // Rows of the singular matrix A = H − λG: each is orthogonal to the eigenvector.
+    let from_row1 = [a[1], -a[0]];
+    let from_row2 = [a[2], -a[1]];
+    let norm = |v: [f64; 2]| v[0].hypot(v[1]);
+    let v = if norm(from_row1) >= norm(from_row2) {
+        from_row1
+    } else {
+        from_row2
+    };
+    let l = norm(v);
+    if l > 0.0 && l.is_finite() {
+        [v[0] / l, v[1] / l]
+    } else {
+        [1.0, 0.0]
+    }
 }
 
 /// Solves (M + σG) w = rhs where σ ≥ 0 is the smallest shift that lifts the smallest
@@ -588,6 +663,32 @@ fn patch_newton(
             }
         }
         if converged {
+            // A saddle or maximum of the distance: step off downhill (see `foot_point`).
+            if min_eigenvalue < -ft.saddle_eigenvalue {
+                let e = min_eigenvector(h, g);
+                let len = (e[0] * jet.du + e[1] * jet.dv).length();
+                if len > 0.0 {
+                    let scale_uv = 0.5 * r.length() / len;
+                    let (mut su, mut sv) = (scale_uv * e[0], scale_uv * e[1]);
+                    let d0 = r.length();
+                    let mut escaped = false;
+                    for _ in 0..=ft.max_backtracks {
+                        let p = patch.point_jacobian(u + su, v + sv).point;
+                        if p.is_finite() && (x - p).length() < d0 {
+                            u += su;
+                            v += sv;
+                            escaped = true;
+                            break;
+                        }
+                        su *= 0.5;
+                        sv *= 0.5;
+                    }
+                    if escaped {
+                        min_eigenvalue = f64::NAN;
+                        continue;
+                    }
+                }
+            }
             return Ok(PatchFoot {
                 u,
                 v,
@@ -603,6 +704,13 @@ fn patch_newton(
         let w = shifted_solve(h, g, [jet.du.dot(r), jet.dv.dot(r)], ft);
         let (mut su, mut sv) = (w[0], w[1]);
         let d0 = r.length();
+        // As for implicit surfaces: the nearest point is within 2|x − P| of P (to first
+        // order in parameter space).
+        let reach = (su * jet.du + sv * jet.dv).length();
+        if reach > 2.0 * d0 {
+            su *= 2.0 * d0 / reach;
+            sv *= 2.0 * d0 / reach;
+        }
         let mut accepted = false;
         for _ in 0..=ft.max_backtracks {
             let p = patch.point_jacobian(u + su, v + sv).point;

@@ -48,10 +48,16 @@ pub struct FootTolerance {
     /// quadratic convergence to a linear rate of ~1e-3·|d|·|∇κ|, still a few iterations.
     pub curvature_reuse: f64,
     /// Smallest eigenvalue the tangential Newton matrix I + d·W (W the Weingarten map, d the
-    /// signed distance) is allowed before it is clamped, dimensionless. Near a focal point it
-    /// tends to 0 and a raw Newton step would be huge. Default 0.25: a step is at most 4× the
-    /// plain tangent-plane step along each principal direction.
+    /// signed distance) is allowed before it is shifted up to it, dimensionless. Near a focal
+    /// point it tends to 0 and a raw Newton step would be huge; steps are also capped at
+    /// 2|x − q| and backtracked. Default 1e-3: near the medial axis (x close to the axis of
+    /// a torus) the true eigenvalue is that small, and a larger floor shrinks the steps into
+    /// a crawl (0.25 left 12 % of such points unconverged after 50 iterations).
     pub min_newton_eigenvalue: f64,
+    /// A converged point where I + d·W has an eigenvalue below `-saddle_eigenvalue` is a
+    /// saddle or maximum of the distance (a critical point on the far side), not a foot point:
+    /// the search steps off it along that eigenvector. Dimensionless. Default 1e-6.
+    pub saddle_eigenvalue: f64,
     /// Halvings of a step that would increase the distance before giving up. Default 30.
     pub max_backtracks: u32,
     /// A query within `warm_radius * scale` of the previous query starts from the previous
@@ -75,7 +81,8 @@ impl Default for FootTolerance {
             max_iterations: 50,
             hessian_step: 1e-5,
             curvature_reuse: 1e-3,
-            min_newton_eigenvalue: 0.25,
+            min_newton_eigenvalue: 1e-3,
+            saddle_eigenvalue: 1e-6,
             max_backtracks: 30,
             warm_radius: 1.0,
             warm_min_eigenvalue: 0.5,
