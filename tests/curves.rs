@@ -355,3 +355,30 @@ fn reversing_an_open_polyline_swaps_its_ends() {
     };
     assert_eq!(reverse(&open).points, vec![DVec3::Y, DVec3::X, DVec3::ZERO]);
 }
+
+#[test]
+fn sphere_and_plane_rotated_and_scaled() {
+    // The first test's circle, moved, turned and scaled: counts and accuracy scale with it.
+    for (scale, center) in [
+        (1e-3, DVec3::new(0.2, -0.1, 0.05)),
+        (1e3, DVec3::new(5e3, 2e3, -1e3)),
+    ] {
+        let axis = DVec3::new(0.3, -0.5, 0.8).normalize();
+        let radius = 2.0 * scale;
+        let height = 1.0 * scale;
+        let mut s = sphere(center, radius);
+        let mut p = NativeSurface(move |q: DVec3| ValueGrad {
+            value: (q - center).dot(axis) - height,
+            gradient: axis,
+        });
+        let step = 0.1 * scale;
+        let near = center + height * axis + DVec3::new(0.9, 0.4, 0.1) * scale;
+        let c = intersection(&mut s, &mut p, near, step, None).unwrap();
+        assert!(c.closed);
+        let expected = (std::f64::consts::TAU * 3f64.sqrt() / 0.1).ceil() as usize;
+        assert_eq!(c.points.len(), expected, "scale {scale}");
+        let off = max_off(&mut s, &c).max(max_off(&mut p, &c));
+        assert!(off <= 1e-10 * scale, "scale {scale}: {off:e}");
+        assert_spacing(&c, step, 0.97);
+    }
+}

@@ -31,6 +31,10 @@ const ROUNDING: f64 = 64.0 * f64::EPSILON;
 /// Where the gradient vanishes at the start, the search restarts this far (relative to the
 /// scale) in a fixed, deliberately unaxial unit direction.
 const OFF_CENTRE: f64 = 1e-3;
+
+/// Grid seeds within this many cells (in u and in v) of a warm-started patch foot point are
+/// taken to lie in its basin and are not run again.
+const WARM_BASIN_CELLS: f64 = 1.5;
 const OFF_CENTRE_DIRECTION: DVec3 = DVec3::new(0.6, 0.48, 0.64);
 
 /// A foot point on an implicit surface.
@@ -550,10 +554,11 @@ impl PatchGrid {
 
 /// The foot point of x on the patch: Newton from the `candidates` best discrete local minima
 /// of the distance to the grid points (nearest first), the nearest result winning (ties: the
-/// earlier run). `warm`, a previous foot's (u, v), runs first; it only sharpens the bound that
-/// lets a seed be skipped when its grid distance minus the grid's cell size already exceeds
-/// the best distance found (its basin cannot hold a nearer point), so warm and cold searches
-/// return the same foot point.
+/// earlier run). `warm`, a previous foot's (u, v), runs first; it sharpens the bound that lets a
+/// seed be skipped when its grid distance minus the grid's cell size already exceeds the best
+/// distance found (its basin cannot hold a nearer point), and seeds within 1.5 grid cells of
+/// the warm foot point (its own basin) are not run again. Every other basin is still searched,
+/// so warm and cold searches return the same foot point.
 pub fn patch_foot(
     patch: &mut dyn Patch,
     x: DVec3,
@@ -577,8 +582,10 @@ pub fn patch_foot(
                 first_error.get_or_insert(e);
             }
         };
+    let mut warm_foot = None;
     if let Some(uv) = warm {
         consider(patch_newton(patch, x, uv, grid.steps, tol), &mut best);
+        warm_foot = best.map(|f| (f.u, f.v));
     }
     for (d, k) in grid
         .seeds(x)
@@ -588,10 +595,16 @@ pub fn patch_foot(
         if best.is_some_and(|b| d - grid.cell > b.distance.abs()) {
             break;
         }
-        consider(
-            patch_newton(patch, x, grid.param(k), grid.steps, tol),
-            &mut best,
-        );
+        let seed = grid.param(k);
+        // A seed in the grid cells around the warm foot point lies in its basin (as far as
+        // the grid resolves basins at all): Newton from it would only find it again.
+        if warm_foot.is_some_and(|(u, v)| {
+            (seed.0 - u).abs() <= WARM_BASIN_CELLS * grid.spacing.0
+                && (seed.1 - v).abs() <= WARM_BASIN_CELLS * grid.spacing.1
+        }) {
+            continue;
+        }
+        consider(patch_newton(patch, x, seed, grid.steps, tol), &mut best);
     }
     match (best, first_error) {
         (Some(f), _) => Ok(f),
