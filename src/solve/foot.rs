@@ -636,8 +636,13 @@ fn patch_newton(
     let ft = &tol.foot;
     let mut min_eigenvalue = f64::NAN;
     let mut residual = f64::INFINITY;
+    // The jet at the accepted point of the line search, evaluated there already.
+    let mut next_jet: Option<PatchJet> = None;
     for iteration in 0..ft.max_iterations {
-        let jet = eval_patch(patch, u, v)?;
+        let jet = match next_jet.take() {
+            Some(jet) => jet,
+            None => eval_patch(patch, u, v)?,
+        };
         let normal_raw = jet.du.cross(jet.dv);
         let nl = normal_raw.length();
         if nl == 0.0 || nl <= tol.singular * jet.du.length() * jet.dv.length() {
@@ -726,11 +731,13 @@ fn patch_newton(
         }
         let mut accepted = false;
         for _ in 0..=ft.max_backtracks {
-            let p = patch.point_jacobian(u + su, v + sv).point;
+            let trial = patch.point_jacobian(u + su, v + sv);
+            let p = trial.point;
             if p.is_finite() && (x - p).length() <= d0 + floor {
                 u += su;
                 v += sv;
                 accepted = true;
+                next_jet = (trial.du.is_finite() && trial.dv.is_finite()).then_some(trial);
                 break;
             }
             su *= 0.5;
