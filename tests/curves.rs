@@ -85,6 +85,22 @@ fn sphere_and_plane_meet_in_a_circle() {
 }
 
 #[test]
+fn a_loop_shorter_than_the_step_is_a_triangle() {
+    // The sphere of radius 2 and the plane z = 2 − 1e-4 meet in a circle of radius ≈ 0.02,
+    // circumference 0.126, far below the step 0.3.
+    let (mut s, mut p) = (sphere(DVec3::ZERO, 2.0), plane_z(2.0 - 1e-4));
+    let c = intersection(&mut s, &mut p, DVec3::new(0.1, 0.0, 2.0), 0.3, None).unwrap();
+    assert!(c.closed);
+    assert_eq!(c.points.len(), 3);
+    assert!(max_off(&mut s, &c).max(max_off(&mut p, &c)) <= 1e-10);
+    let radius = (4.0 - (2.0f64 - 1e-4).powi(2)).sqrt();
+    let side = radius * 3f64.sqrt();
+    for l in spacings(&c) {
+        assert!((l - side).abs() <= 1e-3 * side, "{l} vs {side}");
+    }
+}
+
+#[test]
 fn superellipsoid_and_cylinder_of_section_3_9() {
     let step = 0.1;
     let mut quartic = NativeSurface(|p: DVec3| ValueGrad {

@@ -350,9 +350,12 @@ impl Pair<'_> {
                 h *= 0.5;
             };
             let seg = next - p;
-            if length >= 3.0 * h0 {
+            // Relative to the current step, so that a loop shorter than a few nominal steps
+            // (traced with halved steps to keep the turn small) neither closes early nor
+            // runs round twice.
+            if points.len() >= 3 {
                 let s = ((start - p).dot(seg) / seg.length_squared()).clamp(0.0, 1.0);
-                if (p + s * seg - start).length() <= tol.closure_radius * h0 {
+                if (p + s * seg - start).length() <= tol.closure_radius * h {
                     return Ok((points, End::Closed));
                 }
             }
@@ -406,6 +409,9 @@ impl Pair<'_> {
     fn resample(&mut self, fine: &[DVec3], closed: bool) -> Result<Vec<DVec3>, CurveError> {
         let m = fine.len();
         let segments = if closed { m } else { m.saturating_sub(1) };
+        if segments == 0 {
+            return Ok(fine.to_vec());
+        }
         let mut cumulative = Vec::with_capacity(segments + 1);
         cumulative.push(0.0);
         for i in 0..segments {

@@ -155,8 +155,8 @@ pub struct CurveTolerance {
     /// Tracing gives up (no closure, no exit from the box) after this arc length, in units of
     /// δ. Default 1e5.
     pub max_length: f64,
-    /// The curve has closed when a tracing step passes within `closure_radius` tracing steps
-    /// of the start point, after at least three tracing steps. Default 0.5.
+    /// The curve has closed when a tracing step passes within `closure_radius` times its own
+    /// length of the start point, after at least two tracing steps. Default 0.5.
     pub closure_radius: f64,
     /// Sliding along the curve towards `near`: iterations, and the stop when the tangential
     /// distance to `near` is below `relative_step * δ`. Default 100.
