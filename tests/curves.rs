@@ -398,3 +398,53 @@ fn sphere_and_plane_rotated_and_scaled() {
         assert_spacing(&c, step, 0.97);
     }
 }
+
+#[test]
+fn curves_on_distance_surfaces() {
+    use surfc::surface::{ImplicitDist, PatchDist};
+    // offset(sphere, 0.5) = dist(sphere) − 0.5 meets z = 1 in the circle of radius √(2.5² − 1).
+    let mut offset = {
+        let mut d = ImplicitDist::new(Box::new(sphere(DVec3::ZERO, 2.0)));
+        NativeSurface(move |p: DVec3| {
+            let vg = d.value_gradient(p);
+            ValueGrad {
+                value: vg.value - 0.5,
+                gradient: vg.gradient,
+            }
+        })
+    };
+    let mut plane = plane_z(1.0);
+    let c = intersection(
+        &mut offset,
+        &mut plane,
+        DVec3::new(2.0, 0.5, 1.0),
+        0.1,
+        None,
+    )
+    .unwrap();
+    assert!(c.closed);
+    let radius = (2.5f64 * 2.5 - 1.0).sqrt();
+    assert_eq!(
+        c.points.len(),
+        (std::f64::consts::TAU * radius / 0.1).ceil() as usize
+    );
+    for p in &c.points {
+        assert!((p.truncate().length() - radius).abs() <= 1e-10 && (p.z - 1.0).abs() <= 1e-12);
+    }
+    // The extended roof is the paraboloid z = 3 − 0.06(x² + y²) (its patch formula, read
+    // beyond the declared domain): dist(roof) meets z = 1 in the circle x² + y² = 100/3.
+    let mut roof = PatchDist::new(Box::new(Roof));
+    let c = intersection(&mut roof, &mut plane, DVec3::new(5.0, 1.0, 1.0), 0.2, None).unwrap();
+    assert!(c.closed);
+    for p in &c.points {
+        assert!(
+            roof.value(*p).abs() <= 1e-10 && (p.z - 1.0).abs() <= 1e-12,
+            "{p}"
+        );
+        assert!(
+            (p.truncate().length_squared() - 100.0 / 3.0).abs() <= 1e-8,
+            "{p}"
+        );
+    }
+    assert_spacing(&c, 0.2, 0.95);
+}
