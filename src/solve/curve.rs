@@ -564,6 +564,10 @@ pub fn project_onto(
 /// Samples per edge and per δ of the arc-length table of `boundary`.
 const ARC_TABLE_DENSITY: usize = 32;
 
+/// Entries of one edge's arc-length table at most (a tiny step on a long edge must not
+/// allocate gigabytes; the table then has fewer samples than one per δ/32).
+const MAX_ARC_TABLE: usize = 1 << 22;
+
 /// The image of the boundary of the patch's declared parameter rectangle, counter-clockwise in
 /// (u, v) from (u_lo, v_lo), closed. Each edge gets ⌈L_e/δ⌉ segments of equal object-space
 /// arc length (from a dense arc-length table, inverted by linear interpolation); the four
@@ -601,7 +605,7 @@ pub fn boundary(patch: &mut dyn Patch, step: f64) -> Result<Polygon, CurveError>
         }
         let dense = segment_count(rough, step, 1, max)?
             .saturating_mul(ARC_TABLE_DENSITY)
-            .max(coarse);
+            .clamp(coarse, MAX_ARC_TABLE);
         let mut table = Vec::with_capacity(dense + 1);
         let mut prev = eval(0.0)?;
         table.push((0.0, 0.0));
