@@ -226,8 +226,15 @@ impl Pair<'_> {
             let len = delta.length();
             p -= delta;
             if len <= self.floor(p) {
-                let t = self.tangent(p)?;
-                debug_assert!(t.is_finite());
+                // A stationary point of the (pseudo-inverse) iteration need not lie on both
+                // surfaces: where the normals are parallel it is a least-squares compromise.
+                let (a, b) = self.eval(p)?;
+                let residual =
+                    (a.value.abs() / a.gradient.length()).max(b.value.abs() / b.gradient.length());
+                if residual > self.tol.meet_residual * self.step {
+                    break;
+                }
+                self.tangent(p)?;
                 return Ok(p);
             }
         }
@@ -343,9 +350,12 @@ impl Pair<'_> {
                 h *= 0.5;
             };
             let seg = next - p;
-            if length >= 3.0 * h0 {
+            // Relative to the current step, so that a loop shorter than a few nominal steps
+            // (traced with halved steps to keep the turn small) neither closes early nor
+            // runs round twice.
+            if points.len() >= 3 {
                 let s = ((start - p).dot(seg) / seg.length_squared()).clamp(0.0, 1.0);
-                if (p + s * seg - start).length() <= tol.closure_radius * h0 {
+                if (p + s * seg - start).length() <= tol.closure_radius * h {
                     return Ok((points, End::Closed));
                 }
             }
@@ -399,6 +409,9 @@ impl Pair<'_> {
     fn resample(&mut self, fine: &[DVec3], closed: bool) -> Result<Vec<DVec3>, CurveError> {
         let m = fine.len();
         let segments = if closed { m } else { m.saturating_sub(1) };
+        if segments == 0 {
+            return Ok(fine.to_vec());
+        }
         let mut cumulative = Vec::with_capacity(segments + 1);
         cumulative.push(0.0);
         for i in 0..segments {
@@ -551,6 +564,10 @@ pub fn project_onto(
 /// Samples per edge and per δ of the arc-length table of `boundary`.
 const ARC_TABLE_DENSITY: usize = 32;
 
+/// Entries of one edge's arc-length table at most (a tiny step on a long edge must not
+/// allocate gigabytes; the table then has fewer samples than one per δ/32).
+const MAX_ARC_TABLE: usize = 1 << 22;
+
 /// The image of the boundary of the patch's declared parameter rectangle, counter-clockwise in
 /// (u, v) from (u_lo, v_lo), closed. Each edge gets ⌈L_e/δ⌉ segments of equal object-space
 /// arc length (from a dense arc-length table, inverted by linear interpolation); the four
@@ -588,7 +605,7 @@ pub fn boundary(patch: &mut dyn Patch, step: f64) -> Result<Polygon, CurveError>
         }
         let dense = segment_count(rough, step, 1, max)?
             .saturating_mul(ARC_TABLE_DENSITY)
-            .max(coarse);
+            .clamp(coarse, MAX_ARC_TABLE);
         let mut table = Vec::with_capacity(dense + 1);
         let mut prev = eval(0.0)?;
         table.push((0.0, 0.0));

@@ -9,12 +9,14 @@
 //!   for |d·κ| < 1 and oscillates beyond (outside a thin torus tube, say).
 //! - Parametric patch ([`patch_foot`]): Newton on (u, v) for ½|P(u, v) − x|², second
 //!   derivatives by central differences, seeded by a coarse grid pre-search over the extended
-//!   declared domain (or a warm start).
+//!   declared domain, a warm start running first (see [`patch_foot`]).
 //!
 //! Invariants of a returned foot: |P_T(x − q)| ≤ max(relative_residual·scale, rounding floor);
 //! `normal` is a unit vector (∇f/|∇f|, or (Pu × Pv)/|Pu × Pv| for patches); `distance` is
 //! ±|x − q| with the sign of (x − q)·normal. Every step decreases |x − q| (backtracking), so the
 //! search cannot cycle; it ends in a foot point or a typed error saying why.
+
+use std::cmp::Ordering;
 
 use glam::DVec3;
 
@@ -25,6 +27,15 @@ use crate::surface::{Patch, PatchJet, Surface};
 /// Rounding floor of lengths, in units of the largest coordinate magnitude involved: a
 /// residual this small is as converged as floating point allows.
 const ROUNDING: f64 = 64.0 * f64::EPSILON;
+
+/// Where the gradient vanishes at the start, the search restarts this far (relative to the
+/// scale) in a fixed, deliberately unaxial unit direction.
+const OFF_CENTRE: f64 = 1e-3;
+
+/// Grid seeds within this many cells (in u and in v) of a warm-started patch foot point are
+/// taken to lie in its basin and are not run again.
+const WARM_BASIN_CELLS: f64 = 1.5;
+const OFF_CENTRE_DIRECTION: DVec3 = DVec3::new(0.6, 0.48, 0.64);
 
 /// A foot point on an implicit surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,6 +53,40 @@ pub struct Foot {
     /// Smallest eigenvalue of I + d·W at q (1 on a plane, 0 when x is at a focal point, < 0
     /// beyond it); NaN when the curvature could not be estimated. Decides warm starts.
     pub min_eigenvalue: f64,
+    /// The last curvature estimate (near q), for the next warm start.
+    pub curvature: Option<Curvature>,
+}
+
+/// The Weingarten map W = H_T/|∇f| of an implicit surface at a point `at`, as the symmetric
+/// matrix [w11, w12, w22] in the tangent frame (t1, t2) there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Curvature {
+    pub at: DVec3,
+    pub t1: DVec3,
+    pub t2: DVec3,
+    pub w: [f64; 3],
+}
+
+impl Curvature {
+    /// W in another (nearby) orthonormal tangent frame: w'_ij = t'_i · W t'_j with W extended
+    /// as Σ w_kl t_k t_lᵀ.
+    fn in_frame(&self, s1: DVec3, s2: DVec3) -> [f64; 3] {
+        let a = [
+            [s1.dot(self.t1), s1.dot(self.t2)],
+            [s2.dot(self.t1), s2.dot(self.t2)],
+        ];
+        let w = [[self.w[0], self.w[1]], [self.w[1], self.w[2]]];
+        let entry = |i: usize, j: usize| {
+            let mut sum = 0.0;
+            for (k, wk) in w.iter().enumerate() {
+                for (l, wkl) in wk.iter().enumerate() {
+                    sum += a[i][k] * wkl * a[j][l];
+                }
+            }
+            sum
+        };
+        [entry(0, 0), entry(0, 1), entry(1, 1)]
+    }
 }
 
 /// Why a foot-point search on an implicit surface failed.
@@ -130,6 +175,20 @@ pub fn foot_point(
     start: Option<DVec3>,
     tol: &FootTolerance,
 ) -> Result<Foot, FootError> {
+    foot_point_hinted(surface, x, start, None, tol)
+}
+
+/// `foot_point` with a curvature estimate from an earlier search (a warm start's), reused
+/// while the iterate stays within `curvature_reuse · scale` of where it was measured. The
+/// estimate only sets the speed of convergence, never the foot point.
+pub fn foot_point_hinted(
+    surface: &mut dyn Surface,
+    x: DVec3,
+    start: Option<DVec3>,
+    curvature: Option<Curvature>,
+    tol: &FootTolerance,
+) -> Result<Foot, FootError> {
+    let mut shape = curvature;
     if !x.is_finite() {
         return Err(FootError::NotFinite { x });
     }
@@ -143,7 +202,16 @@ pub fn foot_point(
                 source,
             })
     };
-    let mut q = project(surface, start.unwrap_or(x), 0)?;
+    let q0 = start.unwrap_or(x);
+    let mut q = match project(surface, q0, 0) {
+        // ∇f = 0 at the start (the centre of a sphere, a point of the medial axis where f is
+        // extremal): any nearest point will do, so start a little off it in a fixed direction.
+        Err(FootError::SurfacePoint {
+            source: SurfacePointError::ZeroGradient { .. },
+            ..
+        }) => project(surface, q0 + OFF_CENTRE * scale * OFF_CENTRE_DIRECTION, 0)?,
+        other => other?,
+    };
     let mut min_eigenvalue = f64::NAN;
     let mut residual = f64::INFINITY;
     for iteration in 0..tol.max_iterations {
@@ -180,27 +248,74 @@ pub fn foot_point(
         // The tangential Newton matrix M = I + (rn/|∇f|)·H_T (H_T: the Hessian of f restricted
         // to the tangent plane), symmetric, in the frame (t1, t2).
         let mut m = [1.0, 0.0, 1.0];
-        if rn != 0.0 && (!converged || min_eigenvalue.is_nan()) {
-            let h = tol.hessian_step * scale;
-            let c1 = hessian_column(surface, q, t1, h);
-            let c2 = hessian_column(surface, q, t2, h);
-            if let (Some(c1), Some(c2)) = (c1, c2) {
-                let k = rn / gl;
-                m = [
-                    1.0 + k * t1.dot(c1),
-                    k * 0.5 * (t2.dot(c1) + t1.dot(c2)),
-                    1.0 + k * t2.dot(c2),
-                ];
-                min_eigenvalue = sym_min_eigenvalue(m);
-            } else {
+        // Needed for the step and, at convergence, for the saddle test and warm starts; so
+        // it must be measured near this q (an estimate from the previous iterate may belong
+        // to another part of the surface).
+        if rn != 0.0 {
+            let reusable = shape.filter(|c| (c.at - q).length() <= tol.curvature_reuse * scale);
+            let here = match reusable {
+                Some(c) => Some(c),
+                None => {
+                    let h = tol.hessian_step * scale;
+                    let c1 = hessian_column(surface, q, t1, h);
+                    let c2 = hessian_column(surface, q, t2, h);
+                    match (c1, c2) {
+                        (Some(c1), Some(c2)) => Some(Curvature {
+                            at: q,
+                            t1,
+                            t2,
+                            w: [
+                                t1.dot(c1) / gl,
+                                0.5 * (t2.dot(c1) + t1.dot(c2)) / gl,
+                                t2.dot(c2) / gl,
+                            ],
+                        }),
+                        _ => None,
+                    }
+                }
+            };
+            shape = here;
+            match here {
+                Some(c) => {
+                    let w = c.in_frame(t1, t2);
+                    m = [1.0 + rn * w[0], rn * w[1], 1.0 + rn * w[2]];
+                    min_eigenvalue = sym_min_eigenvalue(m);
+                }
                 // No curvature where f is undefined nearby: plain tangent-plane steps, and no
                 // warm start from here.
-                min_eigenvalue = f64::NAN;
+                None => min_eigenvalue = f64::NAN,
             }
         } else if rn == 0.0 {
             min_eigenvalue = 1.0;
         }
         if converged {
+            // A critical point where I + d·W has a negative eigenvalue is a saddle (or a
+            // maximum) of the distance — the far side of a torus for x in a symmetry plane —
+            // not a foot point: step off along that eigenvector, downhill.
+            if min_eigenvalue < -tol.saddle_eigenvalue
+                && let Some(c) = shape
+            {
+                let w = c.in_frame(t1, t2);
+                let mm = [1.0 + rn * w[0], rn * w[1], 1.0 + rn * w[2]];
+                let e = min_eigenvector(mm, [1.0, 0.0, 1.0]);
+                let mut step = 0.5 * r.length() * (e[0] * t1 + e[1] * t2);
+                let d0 = r.length();
+                let mut escaped = false;
+                for _ in 0..=tol.max_backtracks {
+                    if let Ok(p) = project(surface, q + step, iteration)
+                        && (x - p).length() < d0
+                    {
+                        q = p;
+                        escaped = true;
+                        break;
+                    }
+                    step *= 0.5;
+                }
+                if escaped {
+                    min_eigenvalue = f64::NAN;
+                    continue;
+                }
+            }
             let len = r.length();
             let distance = if rn < 0.0 { -len } else { len };
             return Ok(Foot {
@@ -210,11 +325,16 @@ pub fn foot_point(
                 iterations: iteration,
                 residual,
                 min_eigenvalue,
+                curvature: shape,
             });
         }
         let w = shifted_solve(m, [1.0, 0.0, 1.0], [rt.dot(t1), rt.dot(t2)], tol);
         let mut step = w[0] * t1 + w[1] * t2;
         let d0 = r.length();
+        // The nearest point is within 2|x − q| of q: longer steps only overshoot.
+        if step.length() > 2.0 * d0 {
+            step *= 2.0 * d0 / step.length();
+        }
         let mut next = None;
         let mut last_error = None;
         for _ in 0..=tol.max_backtracks {
@@ -272,6 +392,33 @@ fn generalized_min_eigenvalue(h: [f64; 3], g: [f64; 3]) -> f64 {
     (s - disc.sqrt()) / (2.0 * det_g)
 }
 
+/// A unit-length (in the Euclidean norm of the coefficients) eigenvector of the smallest
+/// generalized eigenvalue of (H, G), both [m11, m12, m22]; its sign is fixed by the formula,
+/// so the choice is deterministic.
+fn min_eigenvector(h: [f64; 3], g: [f64; 3]) -> [f64; 2] {
+    let lambda = generalized_min_eigenvalue(h, g);
+    let a = [
+        h[0] - lambda * g[0],
+        h[1] - lambda * g[1],
+        h[2] - lambda * g[2],
+    ];
+    // Rows of the singular matrix A = H − λG: each is orthogonal to the eigenvector.
+    let from_row1 = [a[1], -a[0]];
+    let from_row2 = [a[2], -a[1]];
+    let norm = |v: [f64; 2]| v[0].hypot(v[1]);
+    let v = if norm(from_row1) >= norm(from_row2) {
+        from_row1
+    } else {
+        from_row2
+    };
+    let l = norm(v);
+    if l > 0.0 && l.is_finite() {
+        [v[0] / l, v[1] / l]
+    } else {
+        [1.0, 0.0]
+    }
+}
+
 /// Solves (M + σG) w = rhs where σ ≥ 0 is the smallest shift that lifts the smallest
 /// generalized eigenvalue of (M, G) to `min_newton_eigenvalue` (a Levenberg–Marquardt shift
 /// in the metric G): a pure Newton step where M is safely positive definite, a damped,
@@ -298,87 +445,172 @@ fn shifted_solve(m: [f64; 3], g: [f64; 3], rhs: [f64; 2], tol: &FootTolerance) -
     ]
 }
 
-/// The foot point of x on the patch. With `start`, one Newton run from that (u, v) (a warm
-/// start); without, the pre-search: the distance at the (grid+1)² nodes of the declared domain
-/// extended by `extension` on every side, Newton from the `candidates` best discrete local
-/// minima, the nearest result wins (ties: the better-ranked seed).
+/// The pre-search grid of a patch: the (grid+1)² points of the declared domain extended by
+/// `extension` on every side. It does not depend on the query, so a distance surface builds
+/// it once.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PatchGrid {
+    side: usize,
+    origin: (f64, f64),
+    spacing: (f64, f64),
+    points: Vec<DVec3>,
+    /// The longest edge between neighbouring grid points: any patch point of the region is
+    /// within about this of a grid point.
+    cell: f64,
+    /// Central-difference steps in (u, v).
+    steps: (f64, f64),
+}
+
+impl PatchGrid {
+    /// Samples the patch over its extended domain. Grid points where the patch is not finite
+    /// are kept as NaN and never seed a search.
+    pub fn new(patch: &mut dyn Patch, tol: &PatchFootTolerance) -> Result<Self, PatchFootError> {
+        let (ud, vd) = patch.domain();
+        let valid = |(lo, hi): (f64, f64)| lo.is_finite() && hi.is_finite() && hi > lo;
+        if !valid(ud) || !valid(vd) {
+            return Err(PatchFootError::BadDomain { u: ud, v: vd });
+        }
+        let n = tol.grid.max(1) as usize;
+        let side = n + 1;
+        let (eu, ev) = (tol.extension * (ud.1 - ud.0), tol.extension * (vd.1 - vd.0));
+        let origin = (ud.0 - eu, vd.0 - ev);
+        let spacing = (
+            (ud.1 - ud.0 + 2.0 * eu) / n as f64,
+            (vd.1 - vd.0 + 2.0 * ev) / n as f64,
+        );
+        let mut points = Vec::with_capacity(side * side);
+        for i in 0..side {
+            for j in 0..side {
+                let u = origin.0 + i as f64 * spacing.0;
+                let v = origin.1 + j as f64 * spacing.1;
+                let p = patch.point_jacobian(u, v).point;
+                points.push(if p.is_finite() { p } else { DVec3::NAN });
+            }
+        }
+        let mut cell: f64 = 0.0;
+        for i in 0..side {
+            for j in 0..side {
+                let p = points[i * side + j];
+                if i + 1 < side {
+                    cell = cell.max((points[(i + 1) * side + j] - p).length());
+                }
+                if j + 1 < side {
+                    cell = cell.max((points[i * side + j + 1] - p).length());
+                }
+            }
+        }
+        Ok(PatchGrid {
+            side,
+            origin,
+            spacing,
+            points,
+            cell,
+            steps: (
+                tol.foot.hessian_step * (ud.1 - ud.0),
+                tol.foot.hessian_step * (vd.1 - vd.0),
+            ),
+        })
+    }
+
+    fn param(&self, k: usize) -> (f64, f64) {
+        let (i, j) = (k / self.side, k % self.side);
+        (
+            self.origin.0 + i as f64 * self.spacing.0,
+            self.origin.1 + j as f64 * self.spacing.1,
+        )
+    }
+
+    /// Grid indices of the discrete local minima of |P − x|², in the strict order (d², index)
+    /// so a plateau yields one seed, nearest first, with their distances.
+    fn seeds(&self, x: DVec3) -> Vec<(f64, usize)> {
+        let side = self.side;
+        let dist2: Vec<f64> = self
+            .points
+            .iter()
+            .map(|p| {
+                let d = (*p - x).length_squared();
+                if d.is_finite() { d } else { f64::INFINITY }
+            })
+            .collect();
+        let key = |k: usize| (dist2[k], k);
+        let less = |a: usize, b: usize| key(a).partial_cmp(&key(b)) == Some(Ordering::Less);
+        let mut seeds: Vec<(f64, usize)> = (0..side * side)
+            .filter(|&k| {
+                let (i, j) = (k / side, k % side);
+                dist2[k].is_finite()
+                    && (i.saturating_sub(1)..=(i + 1).min(side - 1)).all(|a| {
+                        (j.saturating_sub(1)..=(j + 1).min(side - 1)).all(|b| {
+                            let o = a * side + b;
+                            o == k || less(k, o)
+                        })
+                    })
+            })
+            .map(|k| (dist2[k].sqrt(), k))
+            .collect();
+        seeds.sort_by(|a, b| a.partial_cmp(b).unwrap_or(Ordering::Equal));
+        seeds
+    }
+}
+
+/// The foot point of x on the patch: Newton from the `candidates` best discrete local minima
+/// of the distance to the grid points (nearest first), the nearest result winning (ties: the
+/// earlier run). `warm`, a previous foot's (u, v), runs first; it sharpens the bound that lets a
+/// seed be skipped when its grid distance minus the grid's cell size already exceeds the best
+/// distance found (its basin cannot hold a nearer point), and seeds within 1.5 grid cells of
+/// the warm foot point (its own basin) are not run again. Every other basin is still searched,
+/// so warm and cold searches return the same foot point.
 pub fn patch_foot(
     patch: &mut dyn Patch,
     x: DVec3,
-    start: Option<(f64, f64)>,
+    warm: Option<(f64, f64)>,
+    grid: &PatchGrid,
     tol: &PatchFootTolerance,
 ) -> Result<PatchFoot, PatchFootError> {
     if !x.is_finite() {
         return Err(PatchFootError::NotFinite { x });
     }
-    let (ud, vd) = patch.domain();
-    let valid = |(lo, hi): (f64, f64)| lo.is_finite() && hi.is_finite() && hi > lo;
-    if !valid(ud) || !valid(vd) {
-        return Err(PatchFootError::BadDomain { u: ud, v: vd });
-    }
-    let steps = (
-        tol.foot.hessian_step * (ud.1 - ud.0),
-        tol.foot.hessian_step * (vd.1 - vd.0),
-    );
-    if let Some(uv) = start {
-        return patch_newton(patch, x, uv, steps, tol);
-    }
-    let n = tol.grid.max(1) as usize;
-    let (eu, ev) = (tol.extension * (ud.1 - ud.0), tol.extension * (vd.1 - vd.0));
-    let (u0, v0) = (ud.0 - eu, vd.0 - ev);
-    let (du, dv) = (
-        (ud.1 - ud.0 + 2.0 * eu) / n as f64,
-        (vd.1 - vd.0 + 2.0 * ev) / n as f64,
-    );
-    let param = |i: usize, j: usize| (u0 + i as f64 * du, v0 + j as f64 * dv);
-    let side = n + 1;
-    let mut dist2 = Vec::with_capacity(side * side);
-    for i in 0..side {
-        for j in 0..side {
-            let (u, v) = param(i, j);
-            let d2 = (patch.point_jacobian(u, v).point - x).length_squared();
-            dist2.push(if d2.is_finite() { d2 } else { f64::INFINITY });
-        }
-    }
-    // Discrete local minima in the strict order (d², index), so a plateau yields one seed.
-    let key = |k: usize| (dist2[k], k);
-    let mut seeds: Vec<usize> = (0..side * side)
-        .filter(|&k| {
-            let (i, j) = (k / side, k % side);
-            dist2[k].is_finite()
-                && (i.saturating_sub(1)..=(i + 1).min(n)).all(|a| {
-                    (j.saturating_sub(1)..=(j + 1).min(n)).all(|b| {
-                        let o = a * side + b;
-                        o == k || key(k).partial_cmp(&key(o)) == Some(std::cmp::Ordering::Less)
-                    })
-                })
-        })
-        .collect();
-    seeds.sort_by(|&a, &b| {
-        key(a)
-            .partial_cmp(&key(b))
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
-    seeds.truncate(tol.candidates.max(1) as usize);
     let mut best: Option<PatchFoot> = None;
     let mut first_error = None;
-    for k in seeds {
-        match patch_newton(patch, x, param(k / side, k % side), steps, tol) {
+    let mut consider =
+        |result: Result<PatchFoot, PatchFootError>, best: &mut Option<PatchFoot>| match result {
             Ok(f) => {
                 if best.is_none_or(|b| f.distance.abs() < b.distance.abs()) {
-                    best = Some(f);
+                    *best = Some(f);
                 }
             }
             Err(e) => {
                 first_error.get_or_insert(e);
             }
+        };
+    let mut warm_foot = None;
+    if let Some(uv) = warm {
+        consider(patch_newton(patch, x, uv, grid.steps, tol), &mut best);
+        warm_foot = best.map(|f| (f.u, f.v));
+    }
+    for (d, k) in grid
+        .seeds(x)
+        .into_iter()
+        .take(tol.candidates.max(1) as usize)
+    {
+        if best.is_some_and(|b| d - grid.cell > b.distance.abs()) {
+            break;
         }
+        let seed = grid.param(k);
+        // A seed in the grid cells around the warm foot point lies in its basin (as far as
+        // the grid resolves basins at all): Newton from it would only find it again.
+        if warm_foot.is_some_and(|(u, v)| {
+            (seed.0 - u).abs() <= WARM_BASIN_CELLS * grid.spacing.0
+                && (seed.1 - v).abs() <= WARM_BASIN_CELLS * grid.spacing.1
+        }) {
+            continue;
+        }
+        consider(patch_newton(patch, x, seed, grid.steps, tol), &mut best);
     }
     match (best, first_error) {
         (Some(f), _) => Ok(f),
         (None, Some(e)) => Err(e),
         (None, None) => {
-            let (u, v) = param(0, 0);
+            let (u, v) = grid.param(0);
             Err(PatchFootError::PatchNotFinite { u, v })
         }
     }
@@ -404,8 +636,13 @@ fn patch_newton(
     let ft = &tol.foot;
     let mut min_eigenvalue = f64::NAN;
     let mut residual = f64::INFINITY;
+    // The jet at the accepted point of the line search, evaluated there already.
+    let mut next_jet: Option<PatchJet> = None;
     for iteration in 0..ft.max_iterations {
-        let jet = eval_patch(patch, u, v)?;
+        let jet = match next_jet.take() {
+            Some(jet) => jet,
+            None => eval_patch(patch, u, v)?,
+        };
         let normal_raw = jet.du.cross(jet.dv);
         let nl = normal_raw.length();
         if nl == 0.0 || nl <= tol.singular * jet.du.length() * jet.dv.length() {
@@ -444,6 +681,32 @@ fn patch_newton(
             }
         }
         if converged {
+            // A saddle or maximum of the distance: step off downhill (see `foot_point`).
+            if min_eigenvalue < -ft.saddle_eigenvalue {
+                let e = min_eigenvector(h, g);
+                let len = (e[0] * jet.du + e[1] * jet.dv).length();
+                if len > 0.0 {
+                    let scale_uv = 0.5 * r.length() / len;
+                    let (mut su, mut sv) = (scale_uv * e[0], scale_uv * e[1]);
+                    let d0 = r.length();
+                    let mut escaped = false;
+                    for _ in 0..=ft.max_backtracks {
+                        let p = patch.point_jacobian(u + su, v + sv).point;
+                        if p.is_finite() && (x - p).length() < d0 {
+                            u += su;
+                            v += sv;
+                            escaped = true;
+                            break;
+                        }
+                        su *= 0.5;
+                        sv *= 0.5;
+                    }
+                    if escaped {
+                        min_eigenvalue = f64::NAN;
+                        continue;
+                    }
+                }
+            }
             return Ok(PatchFoot {
                 u,
                 v,
@@ -459,13 +722,22 @@ fn patch_newton(
         let w = shifted_solve(h, g, [jet.du.dot(r), jet.dv.dot(r)], ft);
         let (mut su, mut sv) = (w[0], w[1]);
         let d0 = r.length();
+        // As for implicit surfaces: the nearest point is within 2|x − P| of P (to first
+        // order in parameter space).
+        let reach = (su * jet.du + sv * jet.dv).length();
+        if reach > 2.0 * d0 {
+            su *= 2.0 * d0 / reach;
+            sv *= 2.0 * d0 / reach;
+        }
         let mut accepted = false;
         for _ in 0..=ft.max_backtracks {
-            let p = patch.point_jacobian(u + su, v + sv).point;
+            let trial = patch.point_jacobian(u + su, v + sv);
+            let p = trial.point;
             if p.is_finite() && (x - p).length() <= d0 + floor {
                 u += su;
                 v += sv;
                 accepted = true;
+                next_jet = (trial.du.is_finite() && trial.dv.is_finite()).then_some(trial);
                 break;
             }
             su *= 0.5;

@@ -6,5 +6,8 @@ pub mod foot;
 pub mod surfacepoint;
 pub mod tolerance;
 
-pub use foot::{Foot, FootError, PatchFoot, PatchFootError, foot_point, patch_foot};
+pub use foot::{
+    Curvature, Foot, FootError, PatchFoot, PatchFootError, PatchGrid, foot_point,
+    foot_point_hinted, patch_foot,
+};
 pub use surfacepoint::{SurfacePoint, SurfacePointError, surface_point, tangent_frame};

@@ -42,11 +42,22 @@ pub struct FootTolerance {
     /// surface at q, relative to `scale`. Default 1e-5: truncation error ~1e-10 relative,
     /// rounding error ~1e-11; the estimate only sets the convergence rate, never the result.
     pub hessian_step: f64,
+    /// A curvature estimate is reused (not re-measured, saving four gradient evaluations)
+    /// while the iterate stays within `curvature_reuse * scale` of where it was measured,
+    /// also across warm-started queries. Default 1e-3: the outdated estimate then slows the
+    /// quadratic convergence to a linear rate of ~1e-3·|d|·|∇κ|, still a few iterations.
+    pub curvature_reuse: f64,
     /// Smallest eigenvalue the tangential Newton matrix I + d·W (W the Weingarten map, d the
-    /// signed distance) is allowed before it is clamped, dimensionless. Near a focal point it
-    /// tends to 0 and a raw Newton step would be huge. Default 0.25: a step is at most 4× the
-    /// plain tangent-plane step along each principal direction.
+    /// signed distance) is allowed before it is shifted up to it, dimensionless. Near a focal
+    /// point it tends to 0 and a raw Newton step would be huge; steps are also capped at
+    /// 2|x − q| and backtracked. Default 1e-3: near the medial axis (x close to the axis of
+    /// a torus) the true eigenvalue is that small, and a larger floor shrinks the steps into
+    /// a crawl (0.25 left 12 % of such points unconverged after 50 iterations).
     pub min_newton_eigenvalue: f64,
+    /// A converged point where I + d·W has an eigenvalue below `-saddle_eigenvalue` is a
+    /// saddle or maximum of the distance (a critical point on the far side), not a foot point:
+    /// the search steps off it along that eigenvector. Dimensionless. Default 1e-6.
+    pub saddle_eigenvalue: f64,
     /// Halvings of a step that would increase the distance before giving up. Default 30.
     pub max_backtracks: u32,
     /// A query within `warm_radius * scale` of the previous query starts from the previous
@@ -69,7 +80,9 @@ impl Default for FootTolerance {
             relative_residual: 1e-12,
             max_iterations: 50,
             hessian_step: 1e-5,
-            min_newton_eigenvalue: 0.25,
+            curvature_reuse: 1e-3,
+            min_newton_eigenvalue: 1e-3,
+            saddle_eigenvalue: 1e-6,
             max_backtracks: 30,
             warm_radius: 1.0,
             warm_min_eigenvalue: 0.5,
@@ -82,8 +95,10 @@ impl Default for FootTolerance {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PatchFootTolerance {
     /// Convergence, iteration cap, curvature step (here relative to the side lengths of the
-    /// declared domain, in parameter units), clamping, backtracking and warm-start settings,
-    /// with the meanings (and defaults) of `FootTolerance`; its `surface_point` is unused.
+    /// declared domain, in parameter units), clamping, backtracking and warm-start radius,
+    /// with the meanings (and defaults) of `FootTolerance`; its `surface_point` and
+    /// `warm_min_eigenvalue` are unused (a patch's warm start is only the first of several
+    /// seeds, see `solve::foot::patch_foot`).
     pub foot: FootTolerance,
     /// Cells per side of the pre-search grid over the extended domain. Default 32
     /// ((32+1)² = 1089 patch evaluations per cold query).
@@ -123,6 +138,9 @@ pub struct CurveTolerance {
     /// Newton iterations of the first search for a point on both surfaces from `near`.
     /// Default 200.
     pub max_seek_iterations: u32,
+    /// Where that search stalls, the point counts as on both surfaces only if its first-order
+    /// distance max |f_i|/|∇f_i| is below `meet_residual * δ`. Default 1e-6.
+    pub meet_residual: f64,
     /// The sine of the angle between the two normals below which the tangent ∇f1 × ∇f2
     /// counts as vanishing (surfaces touching, or a singular point). Default 1e-6.
     pub tangent_sine: f64,
@@ -137,8 +155,8 @@ pub struct CurveTolerance {
     /// Tracing gives up (no closure, no exit from the box) after this arc length, in units of
     /// δ. Default 1e5.
     pub max_length: f64,
-    /// The curve has closed when a tracing step passes within `closure_radius` tracing steps
-    /// of the start point, after at least three tracing steps. Default 0.5.
+    /// The curve has closed when a tracing step passes within `closure_radius` times its own
+    /// length of the start point, after at least two tracing steps. Default 0.5.
     pub closure_radius: f64,
     /// Sliding along the curve towards `near`: iterations, and the stop when the tangential
     /// distance to `near` is below `relative_step * δ`. Default 100.
@@ -154,6 +172,7 @@ impl Default for CurveTolerance {
             relative_step: 1e-12,
             max_corrector_iterations: 32,
             max_seek_iterations: 200,
+            meet_residual: 1e-6,
             tangent_sine: 1e-6,
             substeps: 4,
             max_halvings: 20,

@@ -7,17 +7,23 @@
 //! Failure is reported through the `Surface` contract: value and gradient NaN, which callers
 //! detect. Direct callers who want the reason use `foot`, which returns the typed error.
 //!
-//! Warm start: each surface remembers its last query and foot point; a query within
-//! `warm_radius · scale` of the last one starts from there, but only if the last foot point was
-//! regular (x well inside the tubular neighbourhood, see `FootTolerance::warm_min_eigenvalue`),
-//! so warm and cold searches converge to the same foot point. A failed warm search is
-//! repeated cold. The cache makes a surface's answers depend on the order of queries only at
-//! the level of the convergence tolerance, and the order is itself deterministic.
+//! Warm start: each surface remembers its last query and foot point. `ImplicitDist` starts a
+//! query within `warm_radius · scale` of the last one from the last foot point (and its
+//! curvature), but only if that foot point was regular (x well inside the tubular
+//! neighbourhood, see `FootTolerance::warm_min_eigenvalue`), so warm and cold searches converge
+//! to the same foot point; a failed warm search is repeated cold. `PatchDist` runs Newton from
+//! the last (u, v) first and then from the pre-search seeds, so a warm start only saves work.
+//! Answers depend on the order of queries only at the level of the convergence tolerance, and
+//! that order is itself deterministic.
+//! The algorithms, regions and conventions are described in `docs/implicitization.md`.
 
 use glam::DVec3;
 
 use super::{Patch, Surface, ValueGrad};
-use crate::solve::foot::{Foot, FootError, PatchFoot, PatchFootError, foot_point, patch_foot};
+use crate::solve::foot::{
+    Curvature, Foot, FootError, PatchFoot, PatchFootError, PatchGrid, foot_point,
+    foot_point_hinted, patch_foot,
+};
 use crate::solve::tolerance::{FootTolerance, PatchFootTolerance};
 
 /// What a NaN-reporting surface returns.
@@ -32,7 +38,7 @@ pub struct ImplicitDist {
     pub inner: Box<dyn Surface>,
     /// Foot-point settings; `tolerance.scale` should be the mesh step when it is known.
     pub tolerance: FootTolerance,
-    warm: Option<(DVec3, DVec3)>,
+    warm: Option<(DVec3, DVec3, Option<Curvature>)>,
 }
 
 impl ImplicitDist {
@@ -55,15 +61,16 @@ impl ImplicitDist {
         let tol = self.tolerance;
         let warm = self
             .warm
-            .filter(|(wx, _)| (x - *wx).length() <= tol.warm_radius * tol.scale)
-            .map(|(_, q)| q);
+            .filter(|(wx, _, _)| (x - *wx).length() <= tol.warm_radius * tol.scale);
         let result = match warm {
-            Some(q) => foot_point(self.inner.as_mut(), x, Some(q), &tol)
-                .or_else(|_| foot_point(self.inner.as_mut(), x, None, &tol)),
+            Some((_, q, curvature)) => {
+                foot_point_hinted(self.inner.as_mut(), x, Some(q), curvature, &tol)
+                    .or_else(|_| foot_point(self.inner.as_mut(), x, None, &tol))
+            }
             None => foot_point(self.inner.as_mut(), x, None, &tol),
         };
         self.warm = match &result {
-            Ok(f) if f.min_eigenvalue >= tol.warm_min_eigenvalue => Some((x, f.point)),
+            Ok(f) if f.min_eigenvalue >= tol.warm_min_eigenvalue => Some((x, f.point, f.curvature)),
             _ => None,
         };
         result
@@ -94,6 +101,8 @@ pub struct PatchDist {
     pub patch: Box<dyn Patch>,
     /// Foot-point settings (pre-search grid and region, Newton, warm start).
     pub tolerance: PatchFootTolerance,
+    /// Built on the first query.
+    grid: Option<PatchGrid>,
     warm: Option<(DVec3, (f64, f64))>,
 }
 
@@ -107,31 +116,31 @@ impl PatchDist {
         PatchDist {
             patch,
             tolerance,
+            grid: None,
             warm: None,
         }
     }
 
-    /// The foot point of x, with the reason when there is none. Uses and updates the warm
-    /// start.
+    /// The foot point of x, with the reason when there is none. The previous query's (u, v)
+    /// seeds the first Newton run when x is within `warm_radius · scale` of it; the grid seeds
+    /// follow (see `solve::foot::patch_foot`), so the answer does not depend on the warm start
+    /// beyond the convergence tolerance.
     pub fn foot(&mut self, x: DVec3) -> Result<PatchFoot, PatchFootError> {
         let tol = self.tolerance;
+        let grid = match &mut self.grid {
+            Some(grid) => grid,
+            None => self.grid.insert(PatchGrid::new(self.patch.as_mut(), &tol)?),
+        };
         let warm = self
             .warm
             .filter(|(wx, _)| (x - *wx).length() <= tol.foot.warm_radius * tol.foot.scale)
             .map(|(_, uv)| uv);
-        let result = match warm {
-            Some(uv) => patch_foot(self.patch.as_mut(), x, Some(uv), &tol)
-                .or_else(|_| patch_foot(self.patch.as_mut(), x, None, &tol)),
-            None => patch_foot(self.patch.as_mut(), x, None, &tol),
-        };
-        self.warm = match &result {
-            Ok(f) if f.min_eigenvalue >= tol.foot.warm_min_eigenvalue => Some((x, (f.u, f.v))),
-            _ => None,
-        };
+        let result = patch_foot(self.patch.as_mut(), x, warm, grid, &tol);
+        self.warm = result.as_ref().ok().map(|f| (x, (f.u, f.v)));
         result
     }
 
-    /// Forget the warm start (the next query runs the pre-search).
+    /// Forget the warm start.
     pub fn clear_warm_start(&mut self) {
         self.warm = None;
     }
