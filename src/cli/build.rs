@@ -10,7 +10,7 @@ use glam::DVec3;
 use crate::compile::{self, CompileError};
 use crate::sema::program::{CurveId, CurveKind, Program, SurfaceRef};
 use crate::solve::curve::{self, CurveError, Polygon};
-use crate::solve::tolerance::SurfacePointTolerance;
+use crate::solve::tolerance::{FootTolerance, PatchFootTolerance, SurfacePointTolerance};
 use crate::surface::compiled::CompiledSurface;
 use crate::surface::{ImplicitDist, PatchDist, Surface};
 
@@ -48,18 +48,39 @@ impl<'p> Builder<'p> {
     }
 
     /// The oracle of a surface: its compiled tape, `dist(S)` children as foot-point distance
-    /// surfaces over S's own compiled tape (or patch), built recursively.
-    pub(crate) fn surface(&self, r: &SurfaceRef) -> Result<CompiledSurface, CompileError> {
-        compile::compile_surface(self.program, r, &mut |target| self.dist_child(target))
+    /// surfaces over S's own compiled tape (or patch), built recursively. `scale` (the mesh
+    /// step) is the length the foot-point tolerances are relative to.
+    pub(crate) fn surface(
+        &self,
+        r: &SurfaceRef,
+        scale: f64,
+    ) -> Result<CompiledSurface, CompileError> {
+        compile::compile_surface(self.program, r, &mut |target| {
+            self.dist_child(target, scale)
+        })
     }
 
-    fn dist_child(&self, target: &SurfaceRef) -> Result<Box<dyn Surface>, CompileError> {
+    fn dist_child(
+        &self,
+        target: &SurfaceRef,
+        scale: f64,
+    ) -> Result<Box<dyn Surface>, CompileError> {
+        let foot = FootTolerance {
+            scale,
+            ..FootTolerance::default()
+        };
         Ok(match target {
-            SurfaceRef::Patch(id) => Box::new(PatchDist::new(Box::new(compile::compile_patch(
-                self.program,
-                *id,
-            )?))),
-            other => Box::new(ImplicitDist::new(Box::new(self.surface(other)?))),
+            SurfaceRef::Patch(id) => Box::new(PatchDist::with_tolerance(
+                Box::new(compile::compile_patch(self.program, *id)?),
+                PatchFootTolerance {
+                    foot,
+                    ..PatchFootTolerance::default()
+                },
+            )),
+            other => Box::new(ImplicitDist::with_tolerance(
+                Box::new(self.surface(other, scale)?),
+                foot,
+            )),
         })
     }
 
@@ -93,8 +114,8 @@ impl<'p> Builder<'p> {
                 second,
                 near,
             } => {
-                let mut s1 = self.surface(first)?;
-                let mut s2 = self.surface(second)?;
+                let mut s1 = self.surface(first, step)?;
+                let mut s2 = self.surface(second, step)?;
                 curve::intersection(&mut s1, &mut s2, *near, step, bbox).map_err(fail)?
             }
             CurveKind::Circle {

@@ -232,7 +232,7 @@ fn mesh_block(
     let started = Instant::now();
     let build_failed = |e: BuildError| messages::mesh_build_failed(&def.name, def.span, &e);
     let mut surface = builder
-        .surface(&def.surface)
+        .surface(&def.surface, def.step)
         .map_err(|e| build_failed(e.into()))?;
     let start = match (def.front, def.start) {
         (Some(front), _) => Start::Front(
