@@ -23,4 +23,5 @@ pub struct NamedMesh<'a> {
     pub mesh: &'a Mesh,
 }
 
+pub mod render;
 pub mod write;
