@@ -24,4 +24,5 @@ pub struct NamedMesh<'a> {
 }
 
 pub mod render;
+pub mod summary;
 pub mod write;
