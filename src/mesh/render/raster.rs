@@ -16,12 +16,17 @@ use crate::mesh::NamedMesh;
 
 /// Largest supersampling factor along each axis.
 const MAX_SUPERSAMPLING: u32 = 4;
+/// Most samples the target may hold (7 bytes each); big pictures get less supersampling.
+const MAX_SAMPLES: u64 = 1 << 25;
 
 /// Draws the meshes (see the module comments of `render` and this module).
 pub fn render(meshes: &[NamedMesh], options: &RenderOptions) -> Picture {
     let width = options.width.clamp(1, super::MAX_SIDE);
     let height = options.height.clamp(1, super::MAX_SIDE);
-    let ss = options.supersampling.clamp(1, MAX_SUPERSAMPLING);
+    let mut ss = options.supersampling.clamp(1, MAX_SUPERSAMPLING);
+    while ss > 1 && u64::from(width * ss) * u64::from(height * ss) > MAX_SAMPLES {
+        ss -= 1;
+    }
     let camera = Camera::fit(
         meshes,
         options.view,
