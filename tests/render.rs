@@ -341,3 +341,17 @@ fn nothing_to_draw_gives_a_blank_picture_and_bad_vertices_are_skipped() {
         .count();
     assert_eq!(check_svg(&svg, 64.0, 48.0), bad.triangles.len() - skipped);
 }
+
+#[test]
+fn the_fit_ignores_where_the_meshes_are_and_how_big() {
+    let sphere = icosphere(3, 1.0);
+    let mut moved = sphere.clone();
+    for v in &mut moved.vertices {
+        *v = *v * 8.0 + DVec3::new(5.0, -3.0, 2.0);
+    }
+    let o = options(200, 150, 40.0, 20.0);
+    let (n, [cx, cy]) = covered(&render(&[named("s", &sphere)], &o));
+    let (m, [mx, my]) = covered(&render(&[named("s", &moved)], &o));
+    assert!(n.abs_diff(m) <= n / 500, "{n} vs {m} pixels");
+    assert!((cx - mx).abs() < 0.05 && (cy - my).abs() < 0.05);
+}
