@@ -630,3 +630,56 @@ fn a_replaced_file_keeps_its_permissions() {
     let mode = |p: &Path| fs::metadata(p).expect("metadata").permissions().mode() & 0o777;
     assert_eq!(mode(&fresh), mode(&plain));
 }
+
+#[test]
+fn names_are_kept_where_the_format_allows_any_name() {
+    let mesh = grid_patch(1);
+    let name = "cap \"1\" é";
+    let meshes = [NamedMesh { name, mesh: &mesh }];
+    let (document, _, _) =
+        gltf::import_slice(bytes(write_glb, &meshes)).expect("gltf imports the GLB");
+    let node = document.nodes().next().expect("a node");
+    assert_eq!(node.name(), Some(name));
+    // Line-based headers cannot hold whitespace in a name.
+    let obj = String::from_utf8(bytes(write_obj, &meshes)).expect("UTF-8");
+    assert!(obj.contains("\no cap_\"1\"_é\n"), "{obj}");
+}
+
+mod round_trip {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn finite() -> impl Strategy<Value = f64> {
+        any::<f64>().prop_filter("finite", |x| x.is_finite())
+    }
+
+    fn triangle_soup() -> impl Strategy<Value = Mesh> {
+        proptest::collection::vec([finite(), finite(), finite()], 3..30).prop_map(|points| {
+            let vertices: Vec<DVec3> = points.iter().map(|&p| DVec3::from_array(p)).collect();
+            let n = vertices.len() as u32;
+            Mesh {
+                normals: vec![DVec3::Z; vertices.len()],
+                triangles: (0..n - 2).map(|i| [i, i + 1, i + 2]).collect(),
+                vertices,
+            }
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// Any finite f64 coordinate comes back bit for bit from OBJ (through tobj) and OFF.
+        #[test]
+        fn text_formats_give_back_every_finite_coordinate(mesh in triangle_soup()) {
+            let meshes = [NamedMesh { name: "soup", mesh: &mesh }];
+            check_obj_with_tobj(&bytes(write_obj, &meshes), &meshes);
+            let off = String::from_utf8(bytes(write_off, &meshes)).expect("UTF-8");
+            let (positions, triangles) = parse_off(&off);
+            for (tri, read) in mesh.triangles.iter().zip(&triangles) {
+                for j in 0..3 {
+                    prop_assert_eq!(bits(positions[read[j]]), bits(mesh.vertices[tri[j] as usize]));
+                }
+            }
+        }
+    }
+}

@@ -27,4 +27,6 @@ pub struct NamedMesh<'a> {
     pub mesh: &'a Mesh,
 }
 
+pub mod render;
+pub mod summary;
 pub mod write;

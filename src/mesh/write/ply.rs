@@ -7,7 +7,7 @@
 use std::collections::HashMap;
 use std::io::{self, Write};
 
-use super::{Format, NamedMesh, header_name};
+use super::{BitsHash, Format, NamedMesh, header_name};
 
 /// Writes the meshes as one binary PLY file (see the module comment).
 pub fn write_ply(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
@@ -16,7 +16,7 @@ pub fn write_ply(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
 
 pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
     // Merge vertices whose position and normal agree bit for bit; first appearance numbers them.
-    let mut seen: HashMap<[u64; 6], u32> = HashMap::new();
+    let mut seen: HashMap<[u64; 6], u32, BitsHash> = HashMap::default();
     let mut order: Vec<(usize, usize)> = Vec::new();
     let index: Vec<Vec<u32>> = meshes
         .iter()
