@@ -15,6 +15,7 @@ use super::{ColorMode, EXIT_INPUT, EXIT_USAGE};
 use crate::diag::{self, Diagnostic, messages};
 use crate::march::{self, MarchInput, MarchSettings, Start};
 use crate::mesh::quality::MeshReport;
+use crate::mesh::summary::{MeshSummary, Progress, format_summary};
 use crate::mesh::write::{Format, write_mesh_file};
 use crate::mesh::{Mesh, NamedMesh};
 use crate::sema::program::{MeshDef, Program, SurfaceRef};
@@ -101,7 +102,7 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
         Ok(s) => s,
         Err(code) => return code,
     };
-    let meshed = match mesh_blocks(&loaded, &selected, color) {
+    let meshed = match mesh_blocks(&loaded, &selected, color, args.quiet) {
         Ok(m) => m,
         Err(code) => return code,
     };
@@ -140,17 +141,17 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
         println!("{json}");
     }
     if !args.quiet {
-        for m in &meshed {
-            let shape = if m.report.boundary_edges == 0 && m.report.non_manifold_edges == 0 {
-                "watertight".to_string()
-            } else {
-                format!("{} boundary loops", m.report.boundary_loops)
-            };
-            eprintln!(
-                "{:<20} {:>9} triangles {:>8.3} s  {shape}",
-                m.name, m.report.triangles, m.seconds
-            );
-        }
+        let rows: Vec<MeshSummary> = meshed
+            .iter()
+            .map(|m| MeshSummary {
+                name: &m.name,
+                triangles: m.report.triangles,
+                seconds: m.seconds,
+                boundary_loops: m.report.boundary_loops,
+                non_manifold_edges: m.report.non_manifold_edges,
+            })
+            .collect();
+        eprint!("{}", format_summary(&rows));
         eprintln!("wrote {}", output.display());
     }
     0
@@ -158,7 +159,7 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
 
 /// The mesh blocks to mesh, in file order: all, or those `--only` names. An unknown name is
 /// a usage error that lists the known ones.
-fn select<'a>(loaded: &'a Loaded, only: &[String]) -> Result<Vec<&'a MeshDef>, u8> {
+pub(crate) fn select<'a>(loaded: &'a Loaded, only: &[String]) -> Result<Vec<&'a MeshDef>, u8> {
     let meshes = &loaded.program.meshes;
     if meshes.is_empty() {
         eprintln!(
@@ -185,8 +186,13 @@ fn select<'a>(loaded: &'a Loaded, only: &[String]) -> Result<Vec<&'a MeshDef>, u
 }
 
 /// Meshes the blocks in order; the first failure is reported as a diagnostic (exit 1).
-fn mesh_blocks(loaded: &Loaded, blocks: &[&MeshDef], color: ColorMode) -> Result<Vec<Meshed>, u8> {
-    mesh_program(&loaded.program, &loaded.source, blocks).map_err(|d| {
+pub(crate) fn mesh_blocks(
+    loaded: &Loaded,
+    blocks: &[&MeshDef],
+    color: ColorMode,
+    quiet: bool,
+) -> Result<Vec<Meshed>, u8> {
+    mesh_program(&loaded.program, &loaded.source, blocks, quiet).map_err(|d| {
         diag::emit_stderr(
             &[d],
             &loaded.path.display().to_string(),
@@ -205,21 +211,28 @@ pub fn mesh_source(source: &str) -> Result<Vec<Meshed>, Vec<Diagnostic>> {
     match checked {
         Some((_, program)) if !diag::has_errors(&diags) => {
             let blocks: Vec<&MeshDef> = program.meshes.iter().collect();
-            mesh_program(&program, source, &blocks).map_err(|d| vec![d])
+            mesh_program(&program, source, &blocks, true).map_err(|d| vec![d])
         }
         _ => Err(diags),
     }
 }
 
+/// Meshes the blocks in order, with a progress spinner on a terminal unless `quiet`.
 fn mesh_program(
     program: &Program,
     source: &str,
     blocks: &[&MeshDef],
+    quiet: bool,
 ) -> Result<Vec<Meshed>, Diagnostic> {
     let mut builder = Builder::new(program);
     blocks
         .iter()
-        .map(|def| mesh_block(program, source, &mut builder, def))
+        .map(|def| {
+            let progress = Progress::start(&def.name, quiet);
+            let result = mesh_block(program, source, &mut builder, def);
+            progress.finish();
+            result
+        })
         .collect()
 }
 

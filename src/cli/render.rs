@@ -1,8 +1,13 @@
-//! `surfc render FILE -o OUT.png|OUT.svg [--only NAME]... [--size WxH] [--view AZ,EL]`.
+//! `surfc render FILE -o OUT.png|OUT.svg [--only NAME]... [--size WxH] [--view AZ,EL]`: meshes
+//! the selected blocks as `surfc mesh` does and draws them into one picture.
 
 use std::path::PathBuf;
 
-use super::ColorMode;
+use super::load::load;
+use super::mesh::{mesh_blocks, select};
+use super::{ColorMode, EXIT_USAGE};
+use crate::mesh::NamedMesh;
+use crate::mesh::render::{RenderOptions, parse_size, parse_view, write_picture_file};
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
@@ -19,8 +24,48 @@ pub struct RenderArgs {
     /// View direction: azimuth and elevation in degrees, AZ,EL.
     #[arg(long, default_value = "30,25", allow_hyphen_values = true)]
     pub view: String,
+    /// No progress spinner on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
-pub fn run(_args: RenderArgs, _color: ColorMode) -> u8 {
-    super::not_yet("render")
+pub fn run(args: RenderArgs, color: ColorMode) -> u8 {
+    let options = match (parse_size(&args.size), parse_view(&args.view)) {
+        (Ok((width, height)), Ok(view)) => RenderOptions {
+            width,
+            height,
+            view,
+            ..RenderOptions::default()
+        },
+        (Err(e), _) => {
+            eprintln!("error: --size {}: {e}", args.size);
+            return EXIT_USAGE;
+        }
+        (_, Err(e)) => {
+            eprintln!("error: --view {}: {e}", args.view);
+            return EXIT_USAGE;
+        }
+    };
+    let loaded = match load(&args.file, color) {
+        Ok(l) => l,
+        Err(code) => return code,
+    };
+    let meshed = match select(&loaded, &args.only)
+        .and_then(|blocks| mesh_blocks(&loaded, &blocks, color, args.quiet))
+    {
+        Ok(m) => m,
+        Err(code) => return code,
+    };
+    let named: Vec<NamedMesh> = meshed
+        .iter()
+        .map(|m| NamedMesh {
+            name: &m.name,
+            mesh: &m.mesh,
+        })
+        .collect();
+    if let Err(e) = write_picture_file(&args.output, &named, &options) {
+        eprintln!("error: {e}");
+        return EXIT_USAGE;
+    }
+    0
 }
