@@ -5,11 +5,14 @@
 //! locked by an insta snapshot (source and summary together).
 
 use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use surfc::cli::mesh::{Meshed, mesh_source};
+use surfc::mesh::NamedMesh;
 use surfc::mesh::check::{Expect, check};
 use surfc::mesh::quality::quality;
+use surfc::mesh::render::{RenderOptions, render, write_png};
 
 /// What a mesh of the gallery must satisfy, beyond the checker's defaults.
 struct Row {
@@ -116,14 +119,33 @@ fn summary(m: &Meshed) -> String {
     )
 }
 
+/// Example files whose meshes form one coherent net: drawn together in one picture.
+const NETS: &[&str] = &["two_surfaces", "g2_set"];
+
+/// The example files, sorted.
+fn examples() -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "surf"))
+        .collect();
+    files.sort();
+    files
+}
+
+fn mesh_example(path: &Path) -> (String, Vec<Meshed>) {
+    let source = std::fs::read_to_string(path).unwrap();
+    match mesh_source(&source) {
+        Ok(m) => (source, m),
+        Err(diags) => panic!("{} does not mesh: {diags:#?}", path.display()),
+    }
+}
+
 #[test]
 fn gallery() {
     insta::glob!("../examples", "*.surf", |path| {
-        let source = std::fs::read_to_string(path).unwrap();
-        let meshed = match mesh_source(&source) {
-            Ok(m) => m,
-            Err(diags) => panic!("{} does not mesh: {diags:#?}", path.display()),
-        };
+        let (source, meshed) = mesh_example(path);
         let mut report = String::new();
         for m in &meshed {
             let bad = violations(m);
@@ -141,3 +163,99 @@ fn gallery() {
         insta::assert_snapshot!(snapshot);
     });
 }
+
+/// The pictures of docs/gallery.md: one per mesh block (one per file for the files whose
+/// meshes form a net), each `surfc render`'s PNG at its defaults but 640x480. The test fails
+/// when a committed picture or the page differs from what the examples give now;
+/// `SURFC_UPDATE_GALLERY=1 cargo test --release --test gallery gallery_pictures` regenerates
+/// them all.
+#[test]
+fn gallery_pictures() {
+    let update = std::env::var_os("SURFC_UPDATE_GALLERY").is_some();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let options = RenderOptions {
+        width: 640,
+        height: 480,
+        ..RenderOptions::default()
+    };
+    let mut page = String::from(GALLERY_HEADER);
+    let mut stale = Vec::new();
+    for path in examples() {
+        let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
+        let started = std::time::Instant::now();
+        let (source, meshed) = mesh_example(&path);
+        let seconds = started.elapsed().as_secs_f64();
+        let groups: Vec<(String, Vec<&Meshed>)> = if NETS.contains(&stem.as_str()) {
+            vec![(stem.clone(), meshed.iter().collect())]
+        } else {
+            meshed
+                .iter()
+                .map(|m| (format!("{stem}-{}", m.name), vec![m]))
+                .collect()
+        };
+        let _ = writeln!(page, "## `{stem}.surf`\n\n```\n{}```\n", source);
+        for m in &meshed {
+            let _ = writeln!(
+                page,
+                "- mesh `{}`: {} triangles, {}",
+                m.name,
+                m.report.triangles,
+                if m.report.boundary_edges == 0 {
+                    "watertight".to_string()
+                } else {
+                    format!("{} boundary loops", m.report.boundary_loops)
+                }
+            );
+        }
+        let _ = writeln!(page, "{TIME_PREFIX}{seconds:.2} s for the whole file)\n");
+        for (picture, group) in &groups {
+            let named: Vec<NamedMesh> = group
+                .iter()
+                .map(|m| NamedMesh {
+                    name: &m.name,
+                    mesh: &m.mesh,
+                })
+                .collect();
+            let mut png = Vec::new();
+            write_png(&mut png, &render(&named, &options)).unwrap();
+            let file = root.join("docs/gallery").join(format!("{picture}.png"));
+            let _ = writeln!(page, "![{picture}](gallery/{picture}.png)\n");
+            if update {
+                std::fs::create_dir_all(file.parent().unwrap()).unwrap();
+                std::fs::write(&file, &png).unwrap();
+            } else if std::fs::read(&file).ok().as_deref() != Some(&png[..]) {
+                stale.push(file.display().to_string());
+            }
+        }
+    }
+    let doc = root.join("docs/gallery.md");
+    if update {
+        std::fs::write(&doc, &page).unwrap();
+    } else {
+        let without_times = |text: &str| -> Vec<String> {
+            text.lines()
+                .filter(|l| !l.starts_with(TIME_PREFIX))
+                .map(str::to_string)
+                .collect()
+        };
+        let committed = std::fs::read_to_string(&doc).unwrap_or_default();
+        if without_times(&committed) != without_times(&page) {
+            stale.push(doc.display().to_string());
+        }
+    }
+    assert!(
+        stale.is_empty(),
+        "out of date with the examples (regenerate with `SURFC_UPDATE_GALLERY=1 cargo test --release --test gallery gallery_pictures`): {stale:#?}"
+    );
+}
+
+const TIME_PREFIX: &str = "(meshed in ";
+
+const GALLERY_HEADER: &str = "# Gallery\n\n\
+The examples of the paper's Sect. 3 (DESIGN.md §5), meshed by `surfc mesh` and drawn by\n\
+`surfc render` (640x480, view 30,25). Each picture is exactly what\n\
+`surfc render examples/FILE.surf -o PICTURE.png --size 640x480 [--only MESH]` draws. The page\n\
+and every picture are regenerated by\n\n\
+```\nSURFC_UPDATE_GALLERY=1 cargo test --release --test gallery gallery_pictures\n```\n\n\
+and the same test, run without the variable, fails when any of them is out of date. Times are\n\
+those of the run that made the page (test build, one core).\n\n";
