@@ -29,14 +29,7 @@ pub fn ccw(w1: f64, w2: f64) -> f64 {
 /// Step 3: how many triangles to put around a point with front angle `omega` whose
 /// neighbours are at distances `d1`, `d2` from it and `gap` from each other, for step
 /// `step`; with the paper's corrections for extreme cases (Fig. 5a–c).
-pub fn triangle_count(
-    omega: f64,
-    d1: f64,
-    d2: f64,
-    gap: f64,
-    step: f64,
-    s: &MarchSettings,
-) -> u32 {
+pub fn triangle_count(omega: f64, d1: f64, d2: f64, gap: f64, step: f64, s: &MarchSettings) -> u32 {
     let mut nt = (3.0 * omega / PI).trunc().max(0.0) as u32 + 1;
     let mut dw = omega / nt as f64;
     if dw < s.min_delta_angle && nt > 1 {
@@ -46,8 +39,7 @@ pub fn triangle_count(
     if nt == 1 && dw > s.min_delta_angle && gap > s.split_gap * step {
         nt = 2;
     }
-    if omega < s.close_angle && (d1 <= s.close_neighbour * step || d2 <= s.close_neighbour * step)
-    {
+    if omega < s.close_angle && (d1 <= s.close_neighbour * step || d2 <= s.close_neighbour * step) {
         nt = 1;
     }
     nt

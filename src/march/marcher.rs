@@ -209,7 +209,9 @@ impl Marcher<'_> {
         self.ensure_heap(f);
         while let Some(&Reverse((_, n, v))) = self.heaps[f.index()].peek() {
             let node = NodeId(n);
-            if self.rings.alive(node) && self.rings.front(node) == f && self.version[n as usize] == v
+            if self.rings.alive(node)
+                && self.rings.front(node) == f
+                && self.version[n as usize] == v
             {
                 return Some(node);
             }
@@ -346,6 +348,25 @@ impl Marcher<'_> {
         if !self.inside(sp.point) {
             return self.border_point(from, sp.point);
         }
+        if let Some((lo, hi)) = self.bbox {
+            // A point this close to a face would leave slivers between it and the border
+            // points beyond it: it goes onto the face instead.
+            let p = sp.point;
+            let (mut best, mut axis, mut value) = (self.s.box_snap * self.step, usize::MAX, 0.0);
+            for k in 0..3 {
+                for bound in [lo[k], hi[k]] {
+                    let d = (p[k] - bound).abs();
+                    if d < best {
+                        (best, axis, value) = (d, k, bound);
+                    }
+                }
+            }
+            if axis != usize::MAX {
+                let mut u = p;
+                u[axis] = value;
+                return self.face_point(u, axis);
+            }
+        }
         Ok(self.add_point(sp, false))
     }
 
@@ -373,7 +394,15 @@ impl Marcher<'_> {
         }
         let mut u = from + t * d;
         u[axis] = value;
-        let start = u;
+        self.face_point(u, axis)
+    }
+
+    /// A border point: from `start` on the box face orthogonal to `axis`, onto the surface
+    /// within that face (falling back to plain surfacepoint where the surface runs along
+    /// the face).
+    fn face_point(&mut self, start: DVec3, axis: usize) -> Result<PointId, MarchError> {
+        let value = start[axis];
+        let mut u = start;
         let tol = self.s.surface_point.relative_step * self.step;
         let mut converged = false;
         for _ in 0..self.s.surface_point.max_iterations {
@@ -407,11 +436,12 @@ impl Marcher<'_> {
                 t2,
             }
         } else {
-            surface_point(self.surface, start, self.step, &self.s.surface_point)
-                .map_err(|source| MarchError::NewPoint {
+            surface_point(self.surface, start, self.step, &self.s.surface_point).map_err(
+                |source| MarchError::NewPoint {
                     near: start,
                     source,
-                })?
+                },
+            )?
         };
         if self.trace {
             eprintln!("march: border point {} (face axis {axis})", sp.point);
@@ -447,6 +477,22 @@ impl Marcher<'_> {
                 }
             };
             let last_at = self.p(m);
+            if self.rings.len(actual) == 4 && self.close_quad(m) {
+                if self.trace {
+                    eprintln!(
+                        "march: close front {} with two triangles at {}",
+                        actual.0, last_at
+                    );
+                }
+                self.retire(actual);
+                match self.next_front() {
+                    Some(f) => {
+                        actual = f;
+                        continue;
+                    }
+                    None => return Ok(()),
+                }
+            }
             if self.rings.len(actual) <= 3 {
                 let (a, b) = (self.rings.prev(m), self.rings.next(m));
                 if self.rings.len(actual) == 3 {
@@ -457,7 +503,10 @@ impl Marcher<'_> {
                     );
                     self.add_triangle(pa, pb, pm);
                     if self.trace {
-                        eprintln!("march: close front {} with a triangle at {}", actual.0, last_at);
+                        eprintln!(
+                            "march: close front {} with a triangle at {}",
+                            actual.0, last_at
+                        );
                     }
                 }
                 self.retire(actual);
@@ -494,6 +543,40 @@ impl Marcher<'_> {
         }
     }
 
+    /// Step 4 for a front of four points a → b → c → d (m among them): two triangles over
+    /// the diagonal that gives the larger smallest angle, instead of completing m with a
+    /// possibly thin triangle. False (nothing done) if the quad has border or repeated
+    /// points.
+    fn close_quad(&mut self, m: NodeId) -> bool {
+        let a = m;
+        let b = self.rings.next(a);
+        let c = self.rings.next(b);
+        let d = self.rings.next(c);
+        let ids = [a, b, c, d].map(|n| self.rings.point(n));
+        if ids.iter().any(|p| self.border[p.index()])
+            || (0..4).any(|i| (i + 1..4).any(|j| ids[i] == ids[j]))
+        {
+            return false;
+        }
+        let [pa, pb, pc, pd] = ids.map(|p| self.pos[p.index()]);
+        let worst = |x: DVec3, y: DVec3, z: DVec3| {
+            let t = crate::mesh::quality::triangle_angles(x, y, z);
+            t[0].min(t[1]).min(t[2])
+        };
+        // Diagonal a–c: (a, c, b), (a, d, c); diagonal b–d: (b, d, c), (d, b, a).
+        let ac = worst(pa, pc, pb).min(worst(pa, pd, pc));
+        let bd = worst(pb, pd, pc).min(worst(pd, pb, pa));
+        let [ia, ib, ic, id] = ids;
+        if ac >= bd {
+            self.add_triangle(ia, ic, ib);
+            self.add_triangle(ia, id, ic);
+        } else {
+            self.add_triangle(ib, id, ic);
+            self.add_triangle(id, ib, ia);
+        }
+        true
+    }
+
     fn retire(&mut self, f: FrontId) {
         for n in self.rings.walk(f) {
             self.uncheck(n);
@@ -507,7 +590,11 @@ impl Marcher<'_> {
                 continue;
             }
             if self.trace {
-                eprintln!("march: front {} becomes actual ({} points)", f.0, self.rings.len(f));
+                eprintln!(
+                    "march: front {} becomes actual ({} points)",
+                    f.0,
+                    self.rings.len(f)
+                );
             }
             for n in self.rings.walk(f) {
                 if self.checkable[n.index()] {
@@ -524,8 +611,7 @@ impl Marcher<'_> {
     fn distance_checks(&mut self, actual: FrontId) -> Result<Option<FrontId>, MarchError> {
         while let Some(a) = self.pending.pop() {
             self.pending_flag[a.index()] = false;
-            if !self.rings.alive(a) || !self.checkable[a.index()] || self.rings.front(a) != actual
-            {
+            if !self.rings.alive(a) || !self.checkable[a.index()] || self.rings.front(a) != actual {
                 continue;
             }
             let Some(b) = self.near_partner(a) else {
@@ -761,7 +847,10 @@ impl Marcher<'_> {
             return;
         }
         let n = self.rings.next(v);
-        if n != v && self.rings.point(n) == self.rings.point(v) && self.rings.len(self.rings.front(v)) > 3 {
+        if n != v
+            && self.rings.point(n) == self.rings.point(v)
+            && self.rings.len(self.rings.front(v)) > 3
+        {
             self.uncheck(n);
             self.rings.replace(n, &[]);
             self.update_angle(v);

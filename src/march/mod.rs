@@ -131,7 +131,9 @@ pub enum MarchError {
     },
     #[error("more than {limit} triangles (the front was last advanced at {at})")]
     TooManyTriangles { limit: u64, at: DVec3 },
-    #[error("the front stopped making progress near {at} after {iterations} steps without a triangle")]
+    #[error(
+        "the front stopped making progress near {at} after {iterations} steps without a triangle"
+    )]
     Stalled { at: DVec3, iterations: u64 },
 }
 

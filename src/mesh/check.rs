@@ -143,7 +143,10 @@ pub fn check(
                 let p = mesh.vertices[e[0] as usize];
                 let d = (p - lo).min(hi - p).min_element();
                 if d > eps {
-                    v.push(Violation::BoundaryOffBox { vertex: e[0], at: p });
+                    v.push(Violation::BoundaryOffBox {
+                        vertex: e[0],
+                        at: p,
+                    });
                     break;
                 }
             }
@@ -151,7 +154,7 @@ pub fn check(
     }
     if let (Some(max), Some(s)) = (expect.max_vertex_error, surface) {
         let found = max_vertex_error(mesh, s);
-        if !(found <= max) {
+        if found.is_nan() || found > max {
             v.push(Violation::VertexError {
                 expected: max,
                 found,
@@ -159,7 +162,7 @@ pub fn check(
         }
     }
     let q = quality(mesh);
-    if !(q.min_angle_deg >= expect.min_angle_deg) {
+    if q.min_angle_deg.is_nan() || q.min_angle_deg < expect.min_angle_deg {
         v.push(Violation::MinAngle {
             expected: expect.min_angle_deg,
             found: q.min_angle_deg,

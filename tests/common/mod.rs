@@ -80,17 +80,17 @@ pub fn three_cylinders(c: f64) -> Boxed {
         let g1 = DVec3::new(2.0 * x, 0.0, 2.0 * (z - 5.0));
         let g2 = DVec3::new(0.0, 2.0 * (y + 4.0), 2.0 * z);
         let g3 = DVec3::new(0.0, 2.0 * (y - 4.0), 2.0 * z);
-        vg(
-            f1 * f2 * f3 - c,
-            g1 * f2 * f3 + g2 * f1 * f3 + g3 * f1 * f2,
-        )
+        vg(f1 * f2 * f3 - c, g1 * f2 * f3 + g2 * f1 * f3 + g3 * f1 * f2)
     }))
 }
 
 /// x² + y² − r².
 pub fn cylinder(r: f64) -> Boxed {
     Box::new(NativeSurface(move |p: DVec3| {
-        vg(p.x * p.x + p.y * p.y - r * r, DVec3::new(2.0 * p.x, 2.0 * p.y, 0.0))
+        vg(
+            p.x * p.x + p.y * p.y - r * r,
+            DVec3::new(2.0 * p.x, 2.0 * p.y, 0.0),
+        )
     }))
 }
 
@@ -123,7 +123,11 @@ pub fn samples(len: f64, step: f64) -> usize {
 /// Runs the marcher, checks the mesh against `expect` (plus vertices on the surface within
 /// 1e-9·step) and prints one quality line. Panics with every violation found.
 pub fn mesh_and_check(name: &str, surface: &mut Boxed, input: &MarchInput, expect: Expect) -> Mesh {
-    let mesh = match march(surface.as_mut(), input, &MarchSettings::default()) {
+    let mut st = MarchSettings::default();
+    if let Ok(v) = std::env::var("NEAR") {
+        st.near_distance = v.parse().unwrap();
+    }
+    let mesh = match march(surface.as_mut(), input, &st) {
         Ok(m) => m,
         Err(e) => panic!("{name}: the marcher failed: {e}"),
     };
