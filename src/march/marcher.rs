@@ -647,7 +647,8 @@ impl Marcher<'_> {
             self.t2[pa_id.index()],
             self.normal[pa_id.index()],
         );
-        let w1a = polar(pa, t1a, t2a, self.pos[ap_id.index()]);
+        // Computed at the first candidate that passes the cheap tests (most checks have none).
+        let mut w1a = None;
         let mut best: Option<(f64, NodeId)> = None;
         for &(b, pb) in &cands {
             let pb_id = self.rings.point(b);
@@ -667,7 +668,8 @@ impl Marcher<'_> {
             if na.dot(self.normal[bi]) < self.s.near_normal_cos {
                 continue;
             }
-            let th = ccw(w1a, polar(pa, t1a, t2a, pb));
+            let w1 = *w1a.get_or_insert_with(|| polar(pa, t1a, t2a, self.pos[ap_id.index()]));
+            let th = ccw(w1, polar(pa, t1a, t2a, pb));
             if !(th > 0.0 && th < self.angle[a.index()]) {
                 continue;
             }
