@@ -1,1 +1,114 @@
-fn main() {}
+//! Marcher throughput (triangles per second) on the paper's sphere and genus-3 surface with
+//! native closures, and the share of the time spent evaluating the surface (printed once
+//! per case, measured with a timing wrapper around the surface).
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use glam::DVec3;
+use surfc::march::{MarchInput, MarchSettings, march};
+use surfc::surface::{NativeSurface, Surface, ValueGrad};
+
+fn sphere() -> impl Surface {
+    NativeSurface(|p: DVec3| ValueGrad {
+        value: p.length_squared() - 4.0,
+        gradient: 2.0 * p,
+    })
+}
+
+fn genus3() -> impl Surface {
+    let (rx, ry, rz, r1, x1) = (6.0f64, 3.5f64, 4.0f64, 1.2f64, 3.9f64);
+    NativeSurface(move |p: DVec3| {
+        let (x, y, z) = (p.x, p.y, p.z);
+        let a = 1.0 - (x / rx).powi(2) - (y / ry).powi(2);
+        let b = (x - x1).powi(2) + y * y - r1 * r1;
+        let c = x * x + y * y - r1 * r1;
+        let d = (x + x1).powi(2) + y * y - r1 * r1;
+        let rz4 = rz.powi(4);
+        let (ax, ay) = (-2.0 * x / (rx * rx), -2.0 * y / (ry * ry));
+        let gx = -(ax * b * c * d
+            + a * 2.0 * (x - x1) * c * d
+            + a * b * 2.0 * x * d
+            + a * b * c * 2.0 * (x + x1));
+        let gy = -(ay * b * c * d + a * 2.0 * y * (c * d + b * d + b * c));
+        ValueGrad {
+            value: rz4 * z * z - a * b * c * d,
+            gradient: DVec3::new(gx, gy, 2.0 * rz4 * z),
+        }
+    })
+}
+
+/// Counts evaluations and the time spent in them.
+struct Timed<S> {
+    inner: S,
+    calls: u64,
+    spent: Duration,
+}
+
+impl<S: Surface> Surface for Timed<S> {
+    fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+        let t = Instant::now();
+        let r = self.inner.value_gradient(p);
+        self.spent += t.elapsed();
+        self.calls += 1;
+        r
+    }
+}
+
+fn case<S: Surface>(
+    c: &mut Criterion,
+    name: &str,
+    mut make: impl FnMut() -> S,
+    step: f64,
+    start: DVec3,
+) {
+    let input = MarchInput::from_point(step, start);
+    let settings = MarchSettings::default();
+    // One timed run: triangle count and the evaluation share (the timer's own cost inflates
+    // the share a little for cheap surfaces).
+    let mut timed = Timed {
+        inner: make(),
+        calls: 0,
+        spent: Duration::ZERO,
+    };
+    let t = Instant::now();
+    let mesh = match march(&mut timed, &input, &settings) {
+        Ok(m) => m,
+        Err(e) => panic!("{name}: {e}"),
+    };
+    let total = t.elapsed();
+    let triangles = mesh.triangles.len() as u64;
+    eprintln!(
+        "{name}: {triangles} triangles in {:.3} s, {} evaluations ({:.2} per triangle), {:.0} % of the time in the surface",
+        total.as_secs_f64(),
+        timed.calls,
+        timed.calls as f64 / triangles as f64,
+        100.0 * timed.spent.as_secs_f64() / total.as_secs_f64()
+    );
+    let mut g = c.benchmark_group("march");
+    g.throughput(Throughput::Elements(triangles));
+    if triangles > 100_000 {
+        g.sample_size(10);
+    }
+    g.bench_function(name, |b| {
+        b.iter(|| {
+            let mut s = make();
+            black_box(march(&mut s, black_box(&input), &settings).map(|m| m.triangles.len()))
+        })
+    });
+    g.finish();
+}
+
+fn benches(c: &mut Criterion) {
+    let s = DVec3::new(1.0, 1.0, 1.0);
+    case(c, "sphere_0.3", sphere, 0.3, s);
+    case(c, "sphere_0.03", sphere, 0.03, s);
+    case(c, "sphere_0.01", sphere, 0.01, s);
+    let g = DVec3::new(0.0, 3.0, 0.0);
+    case(c, "genus3_0.3", genus3, 0.3, g);
+    case(c, "genus3_0.05", genus3, 0.05, g);
+}
+
+criterion_group!(march_benches, benches);
+criterion_main!(march_benches);

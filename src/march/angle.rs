@@ -16,7 +16,12 @@ pub fn polar(p: DVec3, t1: DVec3, t2: DVec3, v: DVec3) -> f64 {
 /// Step 1: the front angle at p between its front neighbours v1 (previous) and v2 (next),
 /// measured counter-clockwise (seen from the normal) from v1 to v2, in [0, 2π).
 pub fn front_angle(p: DVec3, t1: DVec3, t2: DVec3, v1: DVec3, v2: DVec3) -> f64 {
-    ccw(polar(p, t1, t2, v1), polar(p, t1, t2, v2))
+    // One atan2 of the projected vectors' cross and dot products instead of two polar
+    // angles: the same angle, half the cost (this runs for every changed front point).
+    let (d1, d2) = (v1 - p, v2 - p);
+    let (x1, y1, x2, y2) = (d1.dot(t1), d1.dot(t2), d2.dot(t1), d2.dot(t2));
+    let w = (x1 * y2 - y1 * x2).atan2(x1 * x2 + y1 * y2);
+    if w >= 0.0 { w } else { w + TAU }
 }
 
 /// The counter-clockwise angle from polar angle `w1` to `w2`, in [0, 2π).

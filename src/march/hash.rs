@@ -1,5 +1,5 @@
-//! A spatial hash of front nodes: cubic cells of a fixed size, so that all nodes within that
-//! distance of a point are found in the 27 cells around it. Lookups only: the candidates come
+//! A spatial hash of front nodes: cubic cells four query radii wide, so that all nodes
+//! within the radius of a point are found in the (at most 8) cells its cube overlaps. Lookups only: the candidates come
 //! back in cell order and insertion order, never in a hash-map iteration order.
 
 use std::collections::HashMap;
@@ -22,36 +22,43 @@ impl Hasher for CellHasher {
             self.write_u64(b as u64);
         }
     }
-    fn write_i32(&mut self, i: i32) {
-        self.write_u64(i as u32 as u64);
-    }
     fn write_u64(&mut self, i: u64) {
         self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
     }
 }
 
-type Cell = [i32; 3];
+/// A cell's three integer coordinates packed into 21 bits each. Far-away cells that wrap
+/// onto the same key only cost extra candidates, which callers filter by distance.
+type Cell = u64;
 
 /// Nodes by cell.
 #[derive(Debug)]
 pub struct SpatialHash {
+    /// Cells are four query radii wide: fewer lookups, a few more candidates, which are
+    /// cheap to reject (front points lie along curves, so a cell holds few of them).
     inv_cell: f64,
+    radius: f64,
     cells: HashMap<Cell, Vec<(NodeId, DVec3)>, BuildHasherDefault<CellHasher>>,
 }
 
+fn pack(x: i64, y: i64, z: i64) -> Cell {
+    const MASK: u64 = (1 << 21) - 1;
+    ((x as u64 & MASK) << 42) | ((y as u64 & MASK) << 21) | (z as u64 & MASK)
+}
+
 impl SpatialHash {
-    /// A hash with cells of edge `cell` (> 0).
-    pub fn new(cell: f64) -> Self {
+    /// A hash for queries within `radius` (> 0).
+    pub fn new(radius: f64) -> Self {
         SpatialHash {
-            inv_cell: 1.0 / cell,
+            inv_cell: 0.25 / radius,
+            radius,
             cells: HashMap::default(),
         }
     }
 
     fn cell(&self, p: DVec3) -> Cell {
         let c = (p * self.inv_cell).floor();
-        // Saturating casts: far-away points share the outermost cells, still correct.
-        [c.x as i32, c.y as i32, c.z as i32]
+        pack(c.x as i64, c.y as i64, c.z as i64)
     }
 
     pub fn insert(&mut self, n: NodeId, p: DVec3) {
@@ -73,18 +80,19 @@ impl SpatialHash {
         }
     }
 
-    /// Calls `f` for every node within one cell size of `p` (and possibly a little more).
+    /// Calls `f` for every node within the radius of `p` (and some a little farther).
     pub fn for_near(&self, p: DVec3, mut f: impl FnMut(NodeId, DVec3)) {
-        let c = self.cell(p);
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    let k = [
-                        c[0].saturating_add(dx),
-                        c[1].saturating_add(dy),
-                        c[2].saturating_add(dz),
-                    ];
-                    if let Some(v) = self.cells.get(&k) {
+        // The cells the cube p ± radius overlaps: 1 or 2 per axis (1.5³ ≈ 3.4 on average).
+        let lo = ((p - self.radius) * self.inv_cell).floor();
+        let hi = ((p + self.radius) * self.inv_cell).floor();
+        let (lo, hi) = (
+            [lo.x as i64, lo.y as i64, lo.z as i64],
+            [hi.x as i64, hi.y as i64, hi.z as i64],
+        );
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    if let Some(v) = self.cells.get(&pack(x, y, z)) {
                         for &(n, q) in v {
                             f(n, q);
                         }
@@ -102,6 +110,7 @@ mod tests {
     #[test]
     fn finds_every_node_within_a_cell_and_forgets_removed_ones() {
         let mut h = SpatialHash::new(0.5);
+        // Probe several points, in every octant of their cells.
         let pts: Vec<DVec3> = (0..200)
             .map(|i| {
                 let t = i as f64 * 0.37;
@@ -114,16 +123,19 @@ mod tests {
         for &i in &[3usize, 50, 51, 120] {
             h.remove(NodeId(i as u32), pts[i]);
         }
-        let probe = DVec3::new(0.3, -0.2, 0.1);
-        let mut found = Vec::new();
-        h.for_near(probe, |n, _| found.push(n.0 as usize));
-        for (i, &p) in pts.iter().enumerate() {
-            let removed = [3usize, 50, 51, 120].contains(&i);
-            if p.distance(probe) < 0.5 && !removed {
-                assert!(found.contains(&i), "missed node {i}");
-            }
-            if removed {
-                assert!(!found.contains(&i));
+        for k in 0..50 {
+            let t = k as f64 * 0.29;
+            let probe = DVec3::new(1.7 * t.cos(), -1.9 * (0.8 * t).sin(), 0.9 * (1.7 * t).cos());
+            let mut found = Vec::new();
+            h.for_near(probe, |n, _| found.push(n.0 as usize));
+            for (i, &p) in pts.iter().enumerate() {
+                let removed = [3usize, 50, 51, 120].contains(&i);
+                if p.distance(probe) < 0.5 && !removed {
+                    assert!(found.contains(&i), "missed node {i} near {probe}");
+                }
+                if removed {
+                    assert!(!found.contains(&i));
+                }
             }
         }
     }

@@ -348,6 +348,25 @@ impl Marcher<'_> {
         if !self.inside(sp.point) {
             return self.border_point(from, sp.point);
         }
+        if let Some((lo, hi)) = self.bbox {
+            // A point this close to a face would leave slivers between it and the border
+            // points beyond it: it goes onto the face instead.
+            let p = sp.point;
+            let (mut best, mut axis, mut value) = (self.s.box_snap * self.step, usize::MAX, 0.0);
+            for k in 0..3 {
+                for bound in [lo[k], hi[k]] {
+                    let d = (p[k] - bound).abs();
+                    if d < best {
+                        (best, axis, value) = (d, k, bound);
+                    }
+                }
+            }
+            if axis != usize::MAX {
+                let mut u = p;
+                u[axis] = value;
+                return self.face_point(u, axis);
+            }
+        }
         Ok(self.add_point(sp, false))
     }
 
@@ -375,7 +394,15 @@ impl Marcher<'_> {
         }
         let mut u = from + t * d;
         u[axis] = value;
-        let start = u;
+        self.face_point(u, axis)
+    }
+
+    /// A border point: from `start` on the box face orthogonal to `axis`, onto the surface
+    /// within that face (falling back to plain surfacepoint where the surface runs along
+    /// the face).
+    fn face_point(&mut self, start: DVec3, axis: usize) -> Result<PointId, MarchError> {
+        let value = start[axis];
+        let mut u = start;
         let tol = self.s.surface_point.relative_step * self.step;
         let mut converged = false;
         for _ in 0..self.s.surface_point.max_iterations {
@@ -450,6 +477,22 @@ impl Marcher<'_> {
                 }
             };
             let last_at = self.p(m);
+            if self.rings.len(actual) == 4 && self.close_quad(m) {
+                if self.trace {
+                    eprintln!(
+                        "march: close front {} with two triangles at {}",
+                        actual.0, last_at
+                    );
+                }
+                self.retire(actual);
+                match self.next_front() {
+                    Some(f) => {
+                        actual = f;
+                        continue;
+                    }
+                    None => return Ok(()),
+                }
+            }
             if self.rings.len(actual) <= 3 {
                 let (a, b) = (self.rings.prev(m), self.rings.next(m));
                 if self.rings.len(actual) == 3 {
@@ -498,6 +541,40 @@ impl Marcher<'_> {
                 });
             }
         }
+    }
+
+    /// Step 4 for a front of four points a → b → c → d (m among them): two triangles over
+    /// the diagonal that gives the larger smallest angle, instead of completing m with a
+    /// possibly thin triangle. False (nothing done) if the quad has border or repeated
+    /// points.
+    fn close_quad(&mut self, m: NodeId) -> bool {
+        let a = m;
+        let b = self.rings.next(a);
+        let c = self.rings.next(b);
+        let d = self.rings.next(c);
+        let ids = [a, b, c, d].map(|n| self.rings.point(n));
+        if ids.iter().any(|p| self.border[p.index()])
+            || (0..4).any(|i| (i + 1..4).any(|j| ids[i] == ids[j]))
+        {
+            return false;
+        }
+        let [pa, pb, pc, pd] = ids.map(|p| self.pos[p.index()]);
+        let worst = |x: DVec3, y: DVec3, z: DVec3| {
+            let t = crate::mesh::quality::triangle_angles(x, y, z);
+            t[0].min(t[1]).min(t[2])
+        };
+        // Diagonal a–c: (a, c, b), (a, d, c); diagonal b–d: (b, d, c), (d, b, a).
+        let ac = worst(pa, pc, pb).min(worst(pa, pd, pc));
+        let bd = worst(pb, pd, pc).min(worst(pd, pb, pa));
+        let [ia, ib, ic, id] = ids;
+        if ac >= bd {
+            self.add_triangle(ia, ic, ib);
+            self.add_triangle(ia, id, ic);
+        } else {
+            self.add_triangle(ib, id, ic);
+            self.add_triangle(id, ib, ia);
+        }
+        true
     }
 
     fn retire(&mut self, f: FrontId) {
@@ -570,7 +647,8 @@ impl Marcher<'_> {
             self.t2[pa_id.index()],
             self.normal[pa_id.index()],
         );
-        let w1a = polar(pa, t1a, t2a, self.pos[ap_id.index()]);
+        // Computed at the first candidate that passes the cheap tests (most checks have none).
+        let mut w1a = None;
         let mut best: Option<(f64, NodeId)> = None;
         for &(b, pb) in &cands {
             let pb_id = self.rings.point(b);
@@ -590,7 +668,8 @@ impl Marcher<'_> {
             if na.dot(self.normal[bi]) < self.s.near_normal_cos {
                 continue;
             }
-            let th = ccw(w1a, polar(pa, t1a, t2a, pb));
+            let w1 = *w1a.get_or_insert_with(|| polar(pa, t1a, t2a, self.pos[ap_id.index()]));
+            let th = ccw(w1, polar(pa, t1a, t2a, pb));
             if !(th > 0.0 && th < self.angle[a.index()]) {
                 continue;
             }

@@ -154,7 +154,7 @@ pub fn check(
     }
     if let (Some(max), Some(s)) = (expect.max_vertex_error, surface) {
         let found = max_vertex_error(mesh, s);
-        if !(found <= max) {
+        if found.is_nan() || found > max {
             v.push(Violation::VertexError {
                 expected: max,
                 found,
@@ -162,7 +162,7 @@ pub fn check(
         }
     }
     let q = quality(mesh);
-    if !(q.min_angle_deg >= expect.min_angle_deg) {
+    if q.min_angle_deg.is_nan() || q.min_angle_deg < expect.min_angle_deg {
         v.push(Violation::MinAngle {
             expected: expect.min_angle_deg,
             found: q.min_angle_deg,

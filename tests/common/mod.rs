@@ -123,7 +123,11 @@ pub fn samples(len: f64, step: f64) -> usize {
 /// Runs the marcher, checks the mesh against `expect` (plus vertices on the surface within
 /// 1e-9·step) and prints one quality line. Panics with every violation found.
 pub fn mesh_and_check(name: &str, surface: &mut Boxed, input: &MarchInput, expect: Expect) -> Mesh {
-    let mesh = match march(surface.as_mut(), input, &MarchSettings::default()) {
+    let mut st = MarchSettings::default();
+    if let Ok(v) = std::env::var("NEAR") {
+        st.near_distance = v.parse().unwrap();
+    }
+    let mesh = match march(surface.as_mut(), input, &st) {
         Ok(m) => m,
         Err(e) => panic!("{name}: the marcher failed: {e}"),
     };

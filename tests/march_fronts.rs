@@ -1,0 +1,223 @@
+//! Issue 5, the marcher half: a given polygon as the first front and bounding polygons the
+//! front unites with (Sects. 3.2b, 3.3, 3.8). Polygon vertices come out as mesh vertices,
+//! bit-identical and in order, and the polygons are exactly the mesh's boundary loops.
+//!
+//! Orientation rule: walking along a polygon, seen from where ∇f points, the area to be
+//! meshed lies on the left.
+
+mod common;
+
+use std::f64::consts::{PI, TAU};
+
+use common::*;
+use glam::DVec3;
+use surfc::march::{MarchError, MarchInput, MarchSettings, PolygonRole, Start, march};
+use surfc::mesh::Mesh;
+use surfc::mesh::check::Expect;
+use surfc::mesh::topology::topology;
+
+fn input(step: f64, front: Vec<DVec3>, bounds: Vec<Vec<DVec3>>) -> MarchInput {
+    MarchInput {
+        step,
+        start: Start::Front(front),
+        bounds,
+        bbox: None,
+        max_triangles: None,
+    }
+}
+
+/// The boundary loop through `poly[0]`, rotated to start there.
+fn loop_through(mesh: &Mesh, first: DVec3) -> Vec<DVec3> {
+    let t = topology(mesh);
+    for lp in &t.boundary_loops {
+        if let Some(k) = lp.iter().position(|&v| mesh.vertices[v as usize] == first) {
+            let n = lp.len();
+            return (0..n)
+                .map(|i| mesh.vertices[lp[(k + i) % n] as usize])
+                .collect();
+        }
+    }
+    panic!("no boundary loop through {first}");
+}
+
+/// Each polygon is a boundary loop, vertex for vertex (bit-identical, same order).
+fn assert_polygons_are_loops(mesh: &Mesh, polys: &[&Vec<DVec3>]) {
+    for poly in polys {
+        assert_eq!(&loop_through(mesh, poly[0]), *poly);
+    }
+}
+
+#[test]
+fn cylinder_between_two_circles() {
+    let step = 0.2;
+    let n = samples(TAU, step);
+    // Top circle z = 1, area below it: clockwise seen from above (∇f points outwards).
+    let top = circle(DVec3::Z, -DVec3::Z, DVec3::X, 1.0, n);
+    // Base circle z = −1, area above it: counter-clockwise seen from above.
+    let base = circle(-DVec3::Z, DVec3::Z, DVec3::X, 1.0, n);
+    let mut s = cylinder(1.0);
+    let m = mesh_and_check(
+        "cylinder front+bound δ=0.2",
+        &mut s,
+        &input(step, top.clone(), vec![base.clone()]),
+        Expect {
+            euler: Some(0),
+            boundary_loops: Some(2),
+            components: Some(1),
+            ..Expect::default()
+        },
+    );
+    // The polygons' vertices are the first mesh vertices, in the order given.
+    assert_eq!(&m.vertices[..n], &top[..]);
+    assert_eq!(&m.vertices[n..2 * n], &base[..]);
+    assert_polygons_are_loops(&m, &[&top, &base]);
+}
+
+#[test]
+fn sphere_with_six_holes() {
+    let (r, a) = (2.0f64, 1.6f64);
+    let step = a * PI / 30.0;
+    let rc = (r * r - a * a).sqrt();
+    // δ = aπ/30 reads as the angle step π/30 of the circles: 60 vertices each (spacing
+    // 0.75 δ on circles of radius 1.2). Sampled at δ instead (45 vertices) the mesh has
+    // 1792 triangles, which matches the area (20.1 / (0.433 δ²) ≈ 1650 equilateral ones).
+    let n = 60;
+    // Circle on the plane x_k = ±a; the sphere body lies towards the centre, i.e. on the
+    // left when walking clockwise seen from outside (∇f points outwards).
+    let mut polys = Vec::new();
+    for axis in [
+        DVec3::X,
+        -DVec3::X,
+        DVec3::Y,
+        -DVec3::Y,
+        DVec3::Z,
+        -DVec3::Z,
+    ] {
+        let u = if axis.x.abs() > 0.5 {
+            DVec3::Y
+        } else {
+            DVec3::X
+        };
+        polys.push(circle(a * axis, -axis, u, rc, n));
+    }
+    let mut s = sphere(r);
+    let inp = input(step, polys[0].clone(), polys[1..].to_vec());
+    let m = mesh_and_check(
+        "sphere with six holes",
+        &mut s,
+        &inp,
+        Expect {
+            euler: Some(-4),
+            boundary_loops: Some(6),
+            components: Some(1),
+            ..Expect::default()
+        },
+    );
+    assert_near_paper("sphere with six holes", m.triangles.len(), 2206);
+    assert_polygons_are_loops(&m, &polys.iter().collect::<Vec<_>>());
+}
+
+/// The whole torus from one meridian circle: the bound is the same polygon reversed (the
+/// meshed area must lie on its left too, coming around the other way); shared vertices are
+/// one mesh vertex, so the mesh closes up.
+#[test]
+fn whole_torus_from_one_circle() {
+    let (r, a, step) = (1.0, 0.35, 0.1);
+    let n = samples(TAU * a, step);
+    let meridian = circle(DVec3::new(r, 0.0, 0.0), DVec3::Y, DVec3::X, a, n);
+    let mut reversed = meridian.clone();
+    reversed.reverse();
+    let mut s = torus(r, a);
+    let m = mesh_and_check(
+        "torus from one circle",
+        &mut s,
+        &input(step, meridian.clone(), vec![reversed]),
+        Expect {
+            closed: true,
+            euler: Some(0),
+            components: Some(1),
+            ..Expect::default()
+        },
+    );
+    assert_eq!(&m.vertices[..n], &meridian[..]);
+}
+
+#[test]
+fn torus_part_between_two_meridians() {
+    let (r, a, step) = (1.0, 0.35, 0.1);
+    let n = samples(TAU * a, step);
+    let at = |phi: f64| {
+        let d = DVec3::new(phi.cos(), phi.sin(), 0.0);
+        (r * d, DVec3::Z.cross(d))
+    };
+    let (c0, t0) = at(0.0);
+    let (c1, t1) = at(2.0);
+    let front = circle(c0, t0, c0.normalize(), a, n);
+    let bound = circle(c1, -t1, c1.normalize(), a, n);
+    let mut s = torus(r, a);
+    let m = mesh_and_check(
+        "torus part",
+        &mut s,
+        &input(step, front.clone(), vec![bound.clone()]),
+        Expect {
+            euler: Some(0),
+            boundary_loops: Some(2),
+            components: Some(1),
+            ..Expect::default()
+        },
+    );
+    assert_polygons_are_loops(&m, &[&front, &bound]);
+}
+
+#[test]
+fn badly_spaced_or_off_surface_polygons_are_errors() {
+    let mut s = cylinder(1.0);
+    let coarse = circle(DVec3::Z, -DVec3::Z, DVec3::X, 1.0, 8);
+    let e = march(
+        s.as_mut(),
+        &input(0.2, coarse, vec![]),
+        &MarchSettings::default(),
+    );
+    assert!(
+        matches!(
+            e,
+            Err(MarchError::PolygonSpacing {
+                polygon: PolygonRole::Front,
+                index: 0,
+                ..
+            })
+        ),
+        "{e:?}"
+    );
+    let n = samples(TAU, 0.2);
+    let off = circle(DVec3::Z, -DVec3::Z, DVec3::X, 1.01, n);
+    let e = march(
+        s.as_mut(),
+        &input(
+            0.2,
+            circle(DVec3::Z, -DVec3::Z, DVec3::X, 1.0, n),
+            vec![off],
+        ),
+        &MarchSettings::default(),
+    );
+    assert!(
+        matches!(
+            e,
+            Err(MarchError::PolygonOffSurface {
+                polygon: PolygonRole::Bound(0),
+                index: 0,
+                ..
+            })
+        ),
+        "{e:?}"
+    );
+    let e = march(
+        s.as_mut(),
+        &input(0.2, vec![DVec3::X, DVec3::Y], vec![]),
+        &MarchSettings::default(),
+    );
+    assert!(
+        matches!(e, Err(MarchError::PolygonTooShort { len: 2, .. })),
+        "{e:?}"
+    );
+}
