@@ -477,3 +477,73 @@ fn derivatives_at_kinks_are_the_documented_ones() {
     let (da, _) = d(Op::Sqrt, -1.0, 0.0);
     assert!(da.is_nan());
 }
+
+// ---- Every surface of every gallery file -------------------------------------------------
+
+/// The stand-in for `dist(target)` in the gallery test: the target's own function value for
+/// a surface (compiled, or evaluated by the reference), |p|² for a patch. Any smooth surface
+/// exercises the `dist` instruction; the foot-point distances are `surface::dist`'s business.
+fn stand_in_factory(
+    p: &Program,
+) -> impl FnMut(&SurfaceRef) -> Result<Box<dyn Surface>, std::convert::Infallible> + '_ {
+    move |r: &SurfaceRef| -> Result<Box<dyn Surface>, std::convert::Infallible> {
+        Ok(match r {
+            SurfaceRef::Patch(_) => Box::new(NativeSurface(|q: DVec3| ValueGrad {
+                value: q.length_squared(),
+                gradient: 2.0 * q,
+            })),
+            _ => Box::new(compile_surface(p, r, &mut stand_in_factory(p)).unwrap()),
+        })
+    }
+}
+
+fn stand_in_reference(p: &Program, r: &SurfaceRef, q: DVec3) -> f64 {
+    let dist = |r: &SurfaceRef, q: DVec3| stand_in_reference(p, r, q);
+    let reference = Reference {
+        program: p,
+        dist: &dist,
+    };
+    match r {
+        SurfaceRef::Surface(id) => reference.surface(*id, q),
+        SurfaceRef::Patch(_) => q.length_squared(),
+        SurfaceRef::Anonymous(e) => reference.eval(e, q, &[]),
+    }
+}
+
+#[test]
+fn every_gallery_surface_matches_reference_and_finite_differences() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return; // The gallery has not landed in this tree.
+    };
+    let mut files: Vec<_> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "surf"))
+        .collect();
+    files.sort();
+    let mut checked = 0;
+    for file in &files {
+        let source = std::fs::read_to_string(file).unwrap();
+        let p = program(&source);
+        for (k, def) in p.surfaces.iter().enumerate() {
+            let r = SurfaceRef::Surface(surfc::sema::program::SurfaceId(k as u32));
+            // The box of a mesh of this surface, else a box around the origin.
+            let (lo, hi) = p
+                .meshes
+                .iter()
+                .find(|m| m.surface == r)
+                .and_then(|m| m.bbox)
+                .unwrap_or((DVec3::splat(-3.0), DVec3::splat(3.0)));
+            let mut s = compile_surface(&p, &r, &mut stand_in_factory(&p)).unwrap();
+            let name = format!("{}: {}", file.display(), def.name);
+            check_surface(&name, &mut s, &|q| stand_in_reference(&p, &r, q), lo, hi);
+            checked += 1;
+        }
+    }
+    eprintln!("{checked} surfaces in {} files", files.len());
+    assert!(
+        checked >= files.len(),
+        "{checked} surfaces in {} files",
+        files.len()
+    );
+}
