@@ -1,1 +1,205 @@
-fn main() {}
+//! Bytecode against native Rust: value, and value + gradient, over a batch of points in the
+//! model's box, for the genus-3 surface (paper Sect. 3.5) and the G2 blend of three cylinders
+//! (Sect. 3.10). The native versions are the same formulas written in Rust with hand-derived
+//! gradients. Also the single-point path the marcher uses (one `value_gradient` call a point).
+//!
+//! `cargo bench --bench eval -- --warm-up-time 1 --measurement-time 3`
+
+use std::hint::black_box;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use glam::DVec3;
+use surfc::compile::compile_surface;
+use surfc::sema::program::{SurfaceId, SurfaceRef};
+use surfc::surface::compiled::CompiledSurface;
+use surfc::surface::{Surface, ValueGrad};
+
+/// Points a batch: 1 M.
+const POINTS: usize = 1 << 20;
+
+const GENUS3: &str = "const rx = 6;
+const ry = 3.5;
+const rz = 4;
+const r1 = 1.2;
+const x1 = 3.9;
+surface genus3 = rz^4 * z^2
+    - (1 - (x / rx)^2 - (y / ry)^2) * ((x - x1)^2 + y^2 - r1^2) * (x^2 + y^2 - r1^2)
+        * ((x + x1)^2 + y^2 - r1^2);
+";
+
+const BLEND: &str = "const mu = 0.0003;
+surface cylinder_blend = (1 - mu) * (x^2 + y^2 - 1) * (x^2 + z^2 - 1) * (y^2 + z^2 - 1)
+    - mu * (9 - x^2 - y^2 - z^2)^3;
+";
+
+fn compiled(source: &str) -> CompiledSurface {
+    let (file, diags) = surfc::syntax::parse(source);
+    let file = file.unwrap_or_else(|| panic!("{diags:?}"));
+    let (program, _) = surfc::sema::check(&file);
+    let mut no_dist =
+        |_: &SurfaceRef| -> Result<Box<dyn Surface>, std::convert::Infallible> { unreachable!() };
+    compile_surface(&program, &SurfaceRef::Surface(SurfaceId(0)), &mut no_dist).unwrap()
+}
+
+const RX: f64 = 6.0;
+const RY: f64 = 3.5;
+const RZ4: f64 = 256.0;
+const R1SQ: f64 = 1.2 * 1.2;
+const X1: f64 = 3.9;
+
+#[inline]
+fn genus3_value(p: DVec3) -> f64 {
+    let (x, y, z) = (p.x, p.y, p.z);
+    let y2 = y * y;
+    let a = 1.0 - (x / RX) * (x / RX) - (y / RY) * (y / RY);
+    let b = (x - X1) * (x - X1) + y2 - R1SQ;
+    let c = x * x + y2 - R1SQ;
+    let d = (x + X1) * (x + X1) + y2 - R1SQ;
+    RZ4 * z * z - a * b * c * d
+}
+
+#[inline]
+fn genus3_grad(p: DVec3) -> ValueGrad {
+    let (x, y, z) = (p.x, p.y, p.z);
+    let y2 = y * y;
+    let a = 1.0 - (x / RX) * (x / RX) - (y / RY) * (y / RY);
+    let b = (x - X1) * (x - X1) + y2 - R1SQ;
+    let c = x * x + y2 - R1SQ;
+    let d = (x + X1) * (x + X1) + y2 - R1SQ;
+    let (ax, ay) = (-2.0 * x / (RX * RX), -2.0 * y / (RY * RY));
+    let (bx, cx, dx) = (2.0 * (x - X1), 2.0 * x, 2.0 * (x + X1));
+    let yy = 2.0 * y;
+    let (ab, cd) = (a * b, c * d);
+    let px = ax * b * cd + a * bx * cd + ab * cx * d + ab * c * dx;
+    let py = ay * b * cd + (a * cd + ab * d + ab * c) * yy;
+    ValueGrad {
+        value: RZ4 * z * z - ab * cd,
+        gradient: DVec3::new(-px, -py, 2.0 * RZ4 * z),
+    }
+}
+
+const MU: f64 = 0.0003;
+
+#[inline]
+fn blend_value(p: DVec3) -> f64 {
+    let (x2, y2, z2) = (p.x * p.x, p.y * p.y, p.z * p.z);
+    let s = 9.0 - x2 - y2 - z2;
+    (1.0 - MU) * (x2 + y2 - 1.0) * (x2 + z2 - 1.0) * (y2 + z2 - 1.0) - MU * s * s * s
+}
+
+#[inline]
+fn blend_grad(p: DVec3) -> ValueGrad {
+    let (x2, y2, z2) = (p.x * p.x, p.y * p.y, p.z * p.z);
+    let (f1, f2, f3) = (x2 + y2 - 1.0, x2 + z2 - 1.0, y2 + z2 - 1.0);
+    let s = 9.0 - x2 - y2 - z2;
+    let k = 1.0 - MU;
+    let m = 6.0 * MU * s * s;
+    ValueGrad {
+        value: k * f1 * f2 * f3 - MU * s * s * s,
+        gradient: DVec3::new(
+            (k * 2.0 * (f2 * f3 + f1 * f3) + m) * p.x,
+            (k * 2.0 * (f2 * f3 + f1 * f2) + m) * p.y,
+            (k * 2.0 * (f1 * f3 + f1 * f2) + m) * p.z,
+        ),
+    }
+}
+
+/// Seeded points in the box lo..hi.
+fn points(lo: DVec3, hi: DVec3) -> Vec<DVec3> {
+    let mut s = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        s ^= s >> 12;
+        s ^= s << 25;
+        s ^= s >> 27;
+        (s.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
+    };
+    (0..POINTS)
+        .map(|_| lo + (hi - lo) * DVec3::new(next(), next(), next()))
+        .collect()
+}
+
+fn bench_surface(
+    c: &mut Criterion,
+    name: &str,
+    source: &str,
+    lo: DVec3,
+    hi: DVec3,
+    value: fn(DVec3) -> f64,
+    grad: fn(DVec3) -> ValueGrad,
+) {
+    let pts = points(lo, hi);
+    let mut surface = compiled(source);
+    let mut values = vec![0.0; POINTS];
+    let zero = ValueGrad {
+        value: 0.0,
+        gradient: DVec3::ZERO,
+    };
+    let mut grads = vec![zero; POINTS];
+    // The two agree before they race.
+    surface.value_gradient_batch(&pts[..1000], &mut grads[..1000]);
+    for (p, g) in pts.iter().zip(&grads[..1000]) {
+        let n = grad(*p);
+        let tol = 1e-9 * (1.0 + n.value.abs() + n.gradient.abs().max_element());
+        assert!(
+            (n.value - g.value).abs() <= tol
+                && (n.gradient - g.gradient).abs().max_element() <= tol
+        );
+        assert!((value(*p) - n.value).abs() <= tol);
+    }
+
+    let mut group = c.benchmark_group(name);
+    group.throughput(Throughput::Elements(POINTS as u64));
+    group.sample_size(10);
+    group.bench_function("value/bytecode", |b| {
+        b.iter(|| surface.value_batch(black_box(&pts), &mut values))
+    });
+    group.bench_function("value/native", |b| {
+        b.iter(|| {
+            for (o, p) in values.iter_mut().zip(black_box(&pts)) {
+                *o = value(*p);
+            }
+        })
+    });
+    group.bench_function("value_gradient/bytecode", |b| {
+        b.iter(|| surface.value_gradient_batch(black_box(&pts), &mut grads))
+    });
+    group.bench_function("value_gradient/native", |b| {
+        b.iter(|| {
+            for (o, p) in grads.iter_mut().zip(black_box(&pts)) {
+                *o = grad(*p);
+            }
+        })
+    });
+    group.bench_function("value_gradient_single/bytecode", |b| {
+        b.iter(|| {
+            for (o, p) in grads.iter_mut().zip(black_box(&pts)) {
+                *o = surface.value_gradient(*p);
+            }
+        })
+    });
+    group.finish();
+}
+
+fn benches(c: &mut Criterion) {
+    bench_surface(
+        c,
+        "genus3",
+        GENUS3,
+        DVec3::new(-6.5, -4.0, -2.0),
+        DVec3::new(6.5, 4.0, 2.0),
+        genus3_value,
+        genus3_grad,
+    );
+    bench_surface(
+        c,
+        "blend",
+        BLEND,
+        DVec3::splat(-3.0),
+        DVec3::splat(3.0),
+        blend_value,
+        blend_grad,
+    );
+}
+
+criterion_group!(eval, benches);
+criterion_main!(eval);

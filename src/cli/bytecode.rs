@@ -3,6 +3,9 @@
 use std::path::PathBuf;
 
 use super::ColorMode;
+use super::eval::{find_surface, report_compile_error};
+use crate::compile;
+use crate::sema::program::SurfaceRef;
 
 #[derive(clap::Args, Debug)]
 pub struct BytecodeArgs {
@@ -11,6 +14,19 @@ pub struct BytecodeArgs {
     pub surface: String,
 }
 
-pub fn run(_args: BytecodeArgs, _color: ColorMode) -> u8 {
-    super::not_yet("bytecode")
+pub fn run(args: BytecodeArgs, color: ColorMode) -> u8 {
+    let loaded = match super::load::load(&args.file, color) {
+        Ok(l) => l,
+        Err(code) => return code,
+    };
+    let id = match find_surface(&loaded.program, &args.surface) {
+        Ok(id) => id,
+        Err(code) => return code,
+    };
+    let lowered = match compile::lower_surface(&loaded.program, &SurfaceRef::Surface(id)) {
+        Ok(l) => l,
+        Err(e) => return report_compile_error(&e),
+    };
+    print!("{}", compile::listing(&loaded.program, &lowered));
+    0
 }

@@ -2,7 +2,12 @@
 
 use std::path::PathBuf;
 
-use super::ColorMode;
+use glam::DVec3;
+
+use super::{ColorMode, EXIT_INPUT};
+use crate::compile::{self, CompileError};
+use crate::sema::program::{Program, SurfaceId, SurfaceRef};
+use crate::surface::Surface;
 
 #[derive(clap::Args, Debug)]
 #[command(allow_negative_numbers = true)]
@@ -18,6 +23,65 @@ pub struct EvalArgs {
     pub json: bool,
 }
 
-pub fn run(_args: EvalArgs, _color: ColorMode) -> u8 {
-    super::not_yet("eval")
+/// `dist()` targets need the foot-point surfaces of `surface::dist`; until that stage is wired
+/// in, a surface that uses `dist` cannot be evaluated from the command line.
+#[derive(Debug, thiserror::Error)]
+#[error("dist() of another surface is not available in this build")]
+pub(crate) struct DistUnavailable;
+
+/// The id of the surface called `name`, or a message listing the known surfaces and
+/// `EXIT_INPUT`.
+pub(crate) fn find_surface(program: &Program, name: &str) -> Result<SurfaceId, u8> {
+    if let Some(i) = program.surfaces.iter().position(|s| s.name == name) {
+        return Ok(SurfaceId(i as u32));
+    }
+    let known: Vec<&str> = program.surfaces.iter().map(|s| s.name.as_str()).collect();
+    if known.is_empty() {
+        eprintln!("error: no surface `{name}`: the file defines no surfaces");
+    } else {
+        eprintln!(
+            "error: no surface `{name}`; the file defines: {}",
+            known.join(", ")
+        );
+    }
+    Err(EXIT_INPUT)
+}
+
+pub(crate) fn report_compile_error(e: &CompileError) -> u8 {
+    eprintln!("error: cannot compile the surface: {e}");
+    EXIT_INPUT
+}
+
+pub fn run(args: EvalArgs, color: ColorMode) -> u8 {
+    let loaded = match super::load::load(&args.file, color) {
+        Ok(l) => l,
+        Err(code) => return code,
+    };
+    let id = match find_surface(&loaded.program, &args.surface) {
+        Ok(id) => id,
+        Err(code) => return code,
+    };
+    let mut factory =
+        |_: &SurfaceRef| -> Result<Box<dyn Surface>, DistUnavailable> { Err(DistUnavailable) };
+    let mut surface =
+        match compile::compile_surface(&loaded.program, &SurfaceRef::Surface(id), &mut factory) {
+            Ok(s) => s,
+            Err(e) => return report_compile_error(&e),
+        };
+    let p = DVec3::new(args.x, args.y, args.z);
+    let vg = surface.value_gradient(p);
+    let g = vg.gradient;
+    if args.json {
+        let out = serde_json::json!({
+            "value": vg.value,
+            "gradient": [g.x, g.y, g.z],
+        });
+        println!("{out}");
+    } else {
+        println!(
+            "{}({}, {}, {}) = {}, gradient ({}, {}, {})",
+            args.surface, p.x, p.y, p.z, vg.value, g.x, g.y, g.z
+        );
+    }
+    0
 }

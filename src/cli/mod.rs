@@ -75,9 +75,3 @@ pub fn run(cli: Cli) -> u8 {
         Command::Bytecode(args) => bytecode::run(args, color),
     }
 }
-
-/// Placeholder for a command whose stage has not landed yet.
-pub(crate) fn not_yet(what: &str) -> u8 {
-    eprintln!("error: `surfc {what}` is not implemented yet");
-    EXIT_USAGE
-}

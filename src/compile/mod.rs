@@ -116,12 +116,16 @@ pub fn lower_patch(program: &Program, id: PatchId) -> Result<Tape, CompileError>
     Ok(tape)
 }
 
+/// Builds the surface a `dist()` measures (the foot-point distance surfaces of
+/// `surface::dist`; any `Surface` in tests).
+pub type ChildFactory<'a, E> = dyn FnMut(&SurfaceRef) -> Result<Box<dyn Surface>, E> + 'a;
+
 /// Compiles surface `r`, building the surface of each `dist` child with `factory` (which may
 /// call `compile_surface` again for nested `dist`).
 pub fn compile_surface<E>(
     program: &Program,
     r: &SurfaceRef,
-    factory: &mut dyn FnMut(&SurfaceRef) -> Result<Box<dyn Surface>, E>,
+    factory: &mut ChildFactory<'_, E>,
 ) -> Result<CompiledSurface, CompileError>
 where
     E: Into<Box<dyn std::error::Error + Send + Sync>>,
@@ -146,4 +150,19 @@ pub fn compile_patch(program: &Program, id: PatchId) -> Result<CompiledPatch, Co
         .get(id.index())
         .ok_or(CompileError::NoSuchPatch { id })?;
     Ok(CompiledPatch::new(tape, (def.u_range, def.v_range))?)
+}
+
+/// The listing of a lowered surface: its tape, then what each `dist` child measures.
+pub fn listing(program: &Program, lowered: &Lowered) -> String {
+    let mut s = lowered.tape.listing();
+    for (k, (target, span)) in lowered.children.iter().enumerate() {
+        let what = match target {
+            SurfaceRef::Surface(id) => program.surfaces.get(id.index()).map(|d| d.name.clone()),
+            SurfaceRef::Patch(id) => program.patches.get(id.index()).map(|d| d.name.clone()),
+            SurfaceRef::Anonymous(_) => None,
+        }
+        .unwrap_or_else(|| format!("the expression at bytes {}..{}", span.start, span.end));
+        s.push_str(&format!("; #{k} = dist({what})\n"));
+    }
+    s
 }

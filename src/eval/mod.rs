@@ -11,7 +11,7 @@ pub mod ops;
 
 use glam::DVec3;
 
-use crate::compile::tape::{Op, Tape};
+use crate::compile::tape::{Op, Reg, Tape};
 use crate::surface::{Surface, ValueGrad};
 pub use ops::Grad;
 
@@ -19,15 +19,19 @@ pub use ops::Grad;
 /// working set of a tape of a few dozen registers stays in the L1 cache.
 pub const LANES: usize = 32;
 
-type Lanes = [f64; LANES];
+/// Points per block of the value-only batch path: registers are 1 KiB here too, and longer
+/// lane loops amortise the dispatch of each instruction.
+pub const VALUE_LANES: usize = 128;
+
+type Lanes = [f64; VALUE_LANES];
 
 /// One register over a block of points, with gradients: structure of arrays.
 #[derive(Clone, Copy)]
 struct GradLanes {
-    v: Lanes,
-    dx: Lanes,
-    dy: Lanes,
-    dz: Lanes,
+    v: [f64; LANES],
+    dx: [f64; LANES],
+    dy: [f64; LANES],
+    dz: [f64; LANES],
 }
 
 impl GradLanes {
@@ -103,6 +107,28 @@ fn split3<T>(regs: &mut [T], o: usize, a: usize, b: usize) -> Option<(&mut T, &T
     Some((out, pick(a)?, pick(b)?))
 }
 
+/// Register `r` of a single-point register file, without a bounds check: the single-point
+/// loop is what the marcher calls, once per Newton step.
+///
+/// # Safety
+/// `r.index() < regs.len()`. Holds for every register an instruction of a `Vm`'s tape names:
+/// the verifier (`Tape::new`) checked each against `tape.registers()`, and `Vm::new` sizes
+/// both single-point register files to exactly `tape.registers()`.
+#[inline(always)]
+unsafe fn read<T: Copy>(regs: &[T], r: Reg) -> T {
+    debug_assert!(r.index() < regs.len());
+    // SAFETY: the caller's contract.
+    unsafe { *regs.get_unchecked(r.index()) }
+}
+
+/// Writes register `r`; the safety contract of [`read`].
+#[inline(always)]
+unsafe fn write<T>(regs: &mut [T], r: Reg, v: T) {
+    debug_assert!(r.index() < regs.len());
+    // SAFETY: the caller's contract.
+    unsafe { *regs.get_unchecked_mut(r.index()) = v };
+}
+
 /// The point a `dist` instruction measures from: the first three inputs.
 fn point_of(inputs: &[f64]) -> DVec3 {
     let c = |i: usize| inputs.get(i).copied().unwrap_or(0.0);
@@ -147,7 +173,7 @@ macro_rules! per_opcode {
 fn value_lanes(op: Op, o: &mut Lanes, a: &Lanes, b: &Lanes) {
     macro_rules! run {
         ($k:expr) => {
-            for i in 0..LANES {
+            for i in 0..VALUE_LANES {
                 o[i] = ops::value($k, a[i], b[i]);
             }
         };
@@ -211,9 +237,11 @@ impl Vm {
                     Some(child) => child.value(point_of(inputs)),
                     None => f64::NAN,
                 },
-                op => ops::value(op, values[ins.a.index()], values[ins.b.index()]),
+                // SAFETY: see `read`.
+                op => unsafe { ops::value(op, read(values, ins.a), read(values, ins.b)) },
             };
-            values[ins.out.index()] = v;
+            // SAFETY: see `read`.
+            unsafe { write(values, ins.out, v) };
         }
     }
 
@@ -237,9 +265,11 @@ impl Vm {
                     }
                     None => Grad::constant(f64::NAN),
                 },
-                op => ops::grad(op, grads[ins.a.index()], grads[ins.b.index()]),
+                // SAFETY: see `read`.
+                op => unsafe { ops::grad(op, read(grads, ins.a), read(grads, ins.b)) },
             };
-            grads[ins.out.index()] = g;
+            // SAFETY: see `read`.
+            unsafe { write(grads, ins.out, g) };
         }
     }
 
@@ -268,11 +298,11 @@ impl Vm {
             return;
         }
         let n = self.tape.registers();
-        self.lane_values = vec![[0.0; LANES]; n];
+        self.lane_values = vec![[0.0; VALUE_LANES]; n];
         self.lane_grads = vec![GradLanes::ZERO; n];
         for (i, &c) in self.tape.constants().iter().enumerate() {
             let r = self.tape.inputs() + i;
-            self.lane_values[r] = [c; LANES];
+            self.lane_values[r] = [c; VALUE_LANES];
             self.lane_grads[r] = GradLanes::splat(Grad::constant(c));
         }
         // The partials of the inputs are the same at every point: set them once.
@@ -286,7 +316,7 @@ impl Vm {
     pub fn value_batch(&mut self, points: &[DVec3], out: &mut [f64]) {
         self.init_lanes();
         let output = self.tape.outputs()[0].index();
-        for (pts, outs) in points.chunks(LANES).zip(out.chunks_mut(LANES)) {
+        for (pts, outs) in points.chunks(VALUE_LANES).zip(out.chunks_mut(VALUE_LANES)) {
             let n = pts.len().min(outs.len());
             let Vm {
                 tape,

@@ -1,0 +1,94 @@
+//! `surfc eval` and `surfc bytecode` through the binary.
+
+mod compile_common;
+use compile_common as common;
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn surfc(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
+        .args(args)
+        .output()
+        .expect("run surfc");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// The gallery's sphere file if it is there, else the same formula in a temporary file.
+fn sphere_file(dir: &tempfile::TempDir) -> PathBuf {
+    let example = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/sphere.surf");
+    if example.exists() {
+        return example;
+    }
+    let path = dir.path().join("sphere.surf");
+    std::fs::write(&path, common::SPHERE).unwrap();
+    path
+}
+
+#[test]
+fn eval_json_prints_value_and_gradient() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = sphere_file(&dir);
+    let (code, stdout, stderr) = surfc(&[
+        "eval",
+        file.to_str().unwrap(),
+        "sphere",
+        "1",
+        "1",
+        "1",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(
+        v,
+        serde_json::json!({"value": -1.0, "gradient": [2.0, 2.0, 2.0]})
+    );
+    assert_eq!(stdout.lines().count(), 1);
+}
+
+#[test]
+fn eval_accepts_negative_coordinates_and_prints_a_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = sphere_file(&dir);
+    let (code, stdout, stderr) =
+        surfc(&["eval", file.to_str().unwrap(), "sphere", "-2", "0", "0.5"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(stdout, "sphere(-2, 0, 0.5) = 0.25, gradient (-4, 0, 1)\n");
+}
+
+#[test]
+fn unknown_surface_lists_the_known_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = sphere_file(&dir);
+    let (code, stdout, stderr) = surfc(&["eval", file.to_str().unwrap(), "sphre", "0", "0", "0"]);
+    assert_eq!(code, 1);
+    assert!(stdout.is_empty());
+    assert!(
+        stderr.contains("no surface `sphre`") && stderr.contains("sphere"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = surfc(&["bytecode", file.to_str().unwrap(), "nope"]);
+    assert_eq!(code, 1);
+    assert!(stderr.contains("the file defines: sphere"), "{stderr}");
+}
+
+#[test]
+fn bytecode_prints_the_listing() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = sphere_file(&dir);
+    let (code, stdout, stderr) = surfc(&["bytecode", file.to_str().unwrap(), "sphere"]);
+    assert_eq!(code, 0, "{stderr}");
+    let p = common::program(common::SPHERE);
+    let l = surfc::compile::lower_surface(
+        &p,
+        &surfc::sema::program::SurfaceRef::Surface(common::surface_id(&p, "sphere")),
+    )
+    .unwrap();
+    assert_eq!(stdout, surfc::compile::listing(&p, &l));
+    assert!(stdout.contains("  0  r4 = square r0\n"), "{stdout}");
+}
