@@ -12,6 +12,8 @@ mod graph;
 mod items;
 pub mod program;
 pub mod suggest;
+#[cfg(test)]
+mod tests;
 
 use std::collections::BTreeMap;
 
