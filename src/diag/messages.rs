@@ -265,21 +265,24 @@ pub fn reserved_name(span: Span, name: &str, what: &str) -> Diagnostic {
     .help("choose another name")
 }
 
-/// `cycle`: (name, span of the name's definition, span where it uses the next).
+/// `cycle`: (name, span of the name's definition, span where it uses the next). Long cycles
+/// show their first `MAX_CYCLE_STEPS` steps.
 pub fn recursive_definition(cycle: &[(String, Span, Span)]) -> Diagnostic {
-    let names: Vec<String> = cycle.iter().map(|(n, _, _)| format!("`{n}`")).collect();
-    let mut chain = names.join(" → ");
-    if let Some(first) = names.first() {
-        chain.push_str(" → ");
-        chain.push_str(first);
+    const MAX_CYCLE_STEPS: usize = 8;
+    let shown = &cycle[..cycle.len().min(MAX_CYCLE_STEPS)];
+    let mut names: Vec<String> = shown.iter().map(|(n, _, _)| format!("`{n}`")).collect();
+    if cycle.len() > shown.len() {
+        names.push(format!("… ({} more)", cycle.len() - shown.len()));
     }
+    let mut chain = names.join(" → ");
     let (first_name, first_def, _) = &cycle[0];
+    chain.push_str(&format!(" → `{first_name}`"));
     let mut d = Diagnostic::error(
         "E0104",
         format!("recursive definition: `{first_name}` depends on itself"),
     )
     .primary(*first_def, "defined in terms of itself");
-    for (i, (name, _, use_span)) in cycle.iter().enumerate() {
+    for (i, (name, _, use_span)) in shown.iter().enumerate() {
         let next = &cycle[(i + 1) % cycle.len()].0;
         d = d.secondary(*use_span, format!("`{name}` uses `{next}` here"));
     }

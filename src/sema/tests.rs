@@ -80,7 +80,11 @@ fn design_example_lowers() {
     assert_eq!(roof.step, 0.2);
     assert!(matches!(p.curves[3].kind, CurveKind::Boundary(PatchId(0))));
     match &p.curves[0].kind {
-        CurveKind::Intersection { first, second, near } => {
+        CurveKind::Intersection {
+            first,
+            second,
+            near,
+        } => {
             assert_eq!(show_ref(first), "s0");
             assert_eq!(show_ref(second), "(- (dist patch0) c2)");
             assert_eq!(*near, DVec3::new(0.1, -1.0, 3.9));
@@ -169,7 +173,11 @@ fn deepest_accepted_expressions_fit_the_stack() {
         format!("const c = {}1;", "-".repeat(chain)),
         format!("const c = 1{};", "^1".repeat(chain)),
         format!("const c = 1{};", " + 1".repeat(chain)),
-        format!("fn f(t) = {}t{};\nconst c = f(1);", "sqrt(".repeat(depth), ")".repeat(depth)),
+        format!(
+            "fn f(t) = {}t{};\nconst c = f(1);",
+            "sqrt(".repeat(depth),
+            ")".repeat(depth)
+        ),
     ];
     for s in sources {
         let text = format!("{s}\nsurface q = x - c;\nmesh m = q {{ step: 1; start: (0, 0, 0); }}");
@@ -179,6 +187,9 @@ fn deepest_accepted_expressions_fit_the_stack() {
         let file = file.expect("parses");
         let formatted = syntax::format(&file);
         let (again, _) = syntax::parse(&formatted);
-        assert_eq!(syntax::sexpr(&file), syntax::sexpr(&again.expect("reparses")));
+        assert_eq!(
+            syntax::sexpr(&file),
+            syntax::sexpr(&again.expect("reparses"))
+        );
     }
 }
