@@ -110,8 +110,15 @@ pub fn unterminated_comment(span: Span) -> Diagnostic {
 
 pub fn unclosed_paren(opens: &[Span]) -> Diagnostic {
     let mut d = Diagnostic::error("E0003", "unclosed `(`");
-    for &s in opens {
+    // The outermost few are enough to find the place.
+    for &s in opens.iter().take(3) {
         d = d.primary(s, "this `(` is never closed");
+    }
+    if opens.len() > 3 {
+        d = d.note(format!(
+            "{} more `(` are not closed either",
+            opens.len() - 3
+        ));
     }
     d.help("add the missing `)` before the end of the statement")
 }
@@ -199,12 +206,17 @@ pub fn expected_statement(found: Span, found_text: &str, keywords: &[&str]) -> D
     }
 }
 
-pub fn not_utf8(offset: usize) -> Diagnostic {
+/// `offset` is the first invalid byte; the label covers the replacement character that a
+/// lossy decoding puts there (render the diagnostic with that decoding).
+pub fn not_utf8(offset: usize, line: usize) -> Diagnostic {
     Diagnostic::error("E0009", "the file is not UTF-8 text")
         .primary(
-            Span::new(0, 0),
-            format!("the first invalid byte is at offset {offset}"),
+            Span::new(offset, offset + char::REPLACEMENT_CHARACTER.len_utf8()),
+            "not a UTF-8 character",
         )
+        .note(format!(
+            "the first invalid byte is on line {line}, at byte offset {offset}"
+        ))
         .help("save the file as UTF-8")
 }
 
@@ -258,21 +270,24 @@ pub fn reserved_name(span: Span, name: &str, what: &str) -> Diagnostic {
     .help("choose another name")
 }
 
-/// `cycle`: (name, span of the name's definition, span where it uses the next).
+/// `cycle`: (name, span of the name's definition, span where it uses the next). Long cycles
+/// show their first `MAX_CYCLE_STEPS` steps.
 pub fn recursive_definition(cycle: &[(String, Span, Span)]) -> Diagnostic {
-    let names: Vec<String> = cycle.iter().map(|(n, _, _)| format!("`{n}`")).collect();
-    let mut chain = names.join(" → ");
-    if let Some(first) = names.first() {
-        chain.push_str(" → ");
-        chain.push_str(first);
+    const MAX_CYCLE_STEPS: usize = 8;
+    let shown = &cycle[..cycle.len().min(MAX_CYCLE_STEPS)];
+    let mut names: Vec<String> = shown.iter().map(|(n, _, _)| format!("`{n}`")).collect();
+    if cycle.len() > shown.len() {
+        names.push(format!("… ({} more)", cycle.len() - shown.len()));
     }
+    let mut chain = names.join(" → ");
     let (first_name, first_def, _) = &cycle[0];
+    chain.push_str(&format!(" → `{first_name}`"));
     let mut d = Diagnostic::error(
         "E0104",
         format!("recursive definition: `{first_name}` depends on itself"),
     )
     .primary(*first_def, "defined in terms of itself");
-    for (i, (name, _, use_span)) in cycle.iter().enumerate() {
+    for (i, (name, _, use_span)) in shown.iter().enumerate() {
         let next = &cycle[(i + 1) % cycle.len()].0;
         d = d.secondary(*use_span, format!("`{name}` uses `{next}` here"));
     }
@@ -585,7 +600,7 @@ pub fn patch_meshed(span: Span, name: &str) -> Diagnostic {
 pub fn unused(span: Span, what: &str, name: &str) -> Diagnostic {
     Diagnostic::warning("W0001", format!("{what} `{name}` is never used"))
         .primary(span, "defined here")
-        .help(format!("remove it, or prefix its name with `_` to keep it"))
+        .help("remove it, or prefix its name with `_` to keep it")
 }
 
 pub fn start_ignored(start: Span, front: Span) -> Diagnostic {
