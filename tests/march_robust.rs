@@ -8,6 +8,7 @@ use common::*;
 use glam::{DMat3, DVec3};
 use surfc::march::{MarchError, MarchInput, MarchSettings, Start, march};
 use surfc::mesh::check::{Expect, check};
+use surfc::mesh::quality::MeshReport;
 use surfc::surface::{NativeSurface, Surface};
 
 fn closed(euler: i64) -> Expect {
@@ -84,6 +85,25 @@ fn coarse_sphere() {
         closed(2),
     );
     assert!(m.triangles.len() < 200, "{}", m.triangles.len());
+    let report = MeshReport::new(&m, s.as_mut());
+    assert_eq!(report.triangles, m.triangles.len());
+    assert_eq!((report.euler_characteristic, report.components), (2, 1));
+    assert_eq!((report.boundary_edges, report.boundary_loops), (0, 0));
+    assert!(report.max_vertex_error <= 1e-9 * 0.5);
+    let json = serde_json::to_value(&report).unwrap_or_default();
+    for key in [
+        "vertices",
+        "triangles",
+        "boundary_edges",
+        "boundary_loops",
+        "non_manifold_edges",
+        "euler_characteristic",
+        "components",
+        "min_angle_deg",
+        "max_vertex_error",
+    ] {
+        assert!(json.get(key).is_some(), "{key} missing in {json}");
+    }
 }
 
 /// The same input gives the same mesh, bit for bit.

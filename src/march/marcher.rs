@@ -374,9 +374,10 @@ impl Marcher<'_> {
     /// onto the surface within the box face it hit (Newton along the gradient projected into
     /// the face), so that border points lie on the box.
     fn border_point(&mut self, from: DVec3, q: DVec3) -> Result<PointId, MarchError> {
-        let Some((lo, hi)) = self.bbox else {
-            unreachable!("border points exist only with a box")
-        };
+        // Without a box (never the case: callers check `inside` first) nothing truncates.
+        let (lo, hi) = self
+            .bbox
+            .unwrap_or((DVec3::splat(f64::NEG_INFINITY), DVec3::splat(f64::INFINITY)));
         let d = q - from;
         let (mut t, mut axis, mut value) = (1.0f64, 0usize, 0.0);
         for k in 0..3 {

@@ -31,6 +31,8 @@ pub struct Expect {
     /// Smallest angle of any triangle, degrees. Default 15.
     pub min_angle_deg: f64,
     pub no_intersections: bool,
+    /// Every triangle's normal agrees with its vertices' normals (∇f): n_T · Σ n_v > 0.
+    pub normals_agree: bool,
 }
 
 impl Default for Expect {
@@ -46,6 +48,7 @@ impl Default for Expect {
             max_vertex_error: None,
             min_angle_deg: 15.0,
             no_intersections: true,
+            normals_agree: true,
         }
     }
 }
@@ -54,18 +57,57 @@ impl Default for Expect {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Violation {
     Empty,
-    NotClosed { boundary_edges: usize },
-    NonManifold { edges: usize, first: [u32; 2] },
-    Misoriented { edges: usize, first: [u32; 2] },
-    Degenerate { triangles: usize },
-    Euler { expected: i64, found: i64 },
-    Components { expected: usize, found: usize },
-    BoundaryLoops { expected: usize, found: usize },
-    OutsideBox { vertex: u32, at: DVec3 },
-    BoundaryOffBox { vertex: u32, at: DVec3 },
-    VertexError { expected: f64, found: f64 },
-    MinAngle { expected: f64, found: f64 },
-    Intersecting { triangles: [u32; 2], pairs: usize },
+    NotClosed {
+        boundary_edges: usize,
+    },
+    NonManifold {
+        edges: usize,
+        first: [u32; 2],
+    },
+    Misoriented {
+        edges: usize,
+        first: [u32; 2],
+    },
+    Degenerate {
+        triangles: usize,
+    },
+    Euler {
+        expected: i64,
+        found: i64,
+    },
+    Components {
+        expected: usize,
+        found: usize,
+    },
+    BoundaryLoops {
+        expected: usize,
+        found: usize,
+    },
+    OutsideBox {
+        vertex: u32,
+        at: DVec3,
+    },
+    BoundaryOffBox {
+        vertex: u32,
+        at: DVec3,
+    },
+    VertexError {
+        expected: f64,
+        found: f64,
+    },
+    MinAngle {
+        expected: f64,
+        found: f64,
+    },
+    Intersecting {
+        triangles: [u32; 2],
+        pairs: usize,
+    },
+    /// Triangles whose normal points against ∇f.
+    Flipped {
+        first: u32,
+        triangles: usize,
+    },
 }
 
 /// Checks `mesh` against `expect`; the surface is needed for `max_vertex_error`.
@@ -167,6 +209,22 @@ pub fn check(
             expected: expect.min_angle_deg,
             found: q.min_angle_deg,
         });
+    }
+    if expect.normals_agree && mesh.normals.len() == mesh.vertices.len() {
+        let flipped: Vec<u32> = (0..mesh.triangles.len() as u32)
+            .filter(|&i| {
+                let [a, b, c] = mesh.triangles[i as usize].map(|k| k as usize);
+                let n = (mesh.vertices[b] - mesh.vertices[a])
+                    .cross(mesh.vertices[c] - mesh.vertices[a]);
+                n.dot(mesh.normals[a] + mesh.normals[b] + mesh.normals[c]) <= 0.0
+            })
+            .collect();
+        if let Some(&first) = flipped.first() {
+            v.push(Violation::Flipped {
+                first,
+                triangles: flipped.len(),
+            });
+        }
     }
     if expect.no_intersections {
         let pairs = intersecting_pairs(mesh);
