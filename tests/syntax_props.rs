@@ -155,7 +155,10 @@ fn deep_nesting_is_a_diagnostic() {
     for text in cases {
         let (file, diags) = syntax::parse(&text);
         assert!(file.is_none());
-        assert!(diags.iter().any(|d| d.code == "E0005" || d.code == "E0003"), "{diags:?}");
+        assert!(
+            diags.iter().any(|d| d.code == "E0005" || d.code == "E0003"),
+            "{diags:?}"
+        );
         run(&text);
     }
 }
