@@ -375,7 +375,7 @@ impl<'f> Checker<'f> {
             } else {
                 names.insert(&name.name, name.span);
             }
-            let Some(mesh) = self.lower_mesh(item.span, name, surface, options) else {
+            let Some(mesh) = self.lower_mesh(name, surface, options) else {
                 continue;
             };
             let mut uses: Vec<(CurveId, Span)> = Vec::new();
@@ -449,12 +449,10 @@ impl<'f> Checker<'f> {
 
     fn lower_mesh(
         &mut self,
-        item_span: Span,
         name: &ast::Ident,
         surface: &ast::Expr,
         options: &[ast::MeshOption],
     ) -> Option<MeshDef> {
-        let _ = item_span;
         let mut ok = true;
         let mut cx = Ctx::new(Place::Surface, &[], None);
         let surface_ref = self.lower_surface_ref(surface, &mut cx);
