@@ -125,6 +125,33 @@ fn binary_colours_only_when_asked() {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/errors/unknown_name.surf");
     let (_, stderr) = surfc(&["check", "--color", "always", p.to_str().expect("utf-8")]);
     assert!(stderr.contains('\u{1b}'), "no colour with --color always");
+    // `auto` (the default) colours only a terminal; here stderr is a pipe.
+    let (_, stderr) = surfc(&["check", p.to_str().expect("utf-8")]);
+    assert!(
+        !stderr.contains('\u{1b}'),
+        "colour on a pipe with --color auto"
+    );
+}
+
+#[test]
+fn binary_fmt_prints_the_canonical_form() {
+    let sphere = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sphere.surf");
+    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
+        .args(["fmt", sphere.to_str().expect("utf-8")])
+        .output()
+        .expect("surfc runs");
+    assert_eq!(out.status.code(), Some(0));
+    let text = String::from_utf8(out.stdout).expect("utf-8 output");
+    let source = std::fs::read_to_string(&sphere).expect("readable");
+    let (file, _) = syntax::parse(&source);
+    assert_eq!(text, syntax::format(&file.expect("parses")));
+    let broken =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/errors/missing_semicolon.surf");
+    let (code, stderr) = surfc(&["fmt", broken.to_str().expect("utf-8")]);
+    assert_eq!(code, 1);
+    assert!(stderr.contains("E0006"), "{stderr}");
+    let (code, _) = surfc(&["fmt", "no/such/file.surf"]);
+    assert_eq!(code, 2);
 }
 
 fn temp_file(contents: &[u8]) -> tempfile::NamedTempFile {

@@ -139,3 +139,26 @@ fn examples_pass_the_front_end() {
         assert!(!diag::has_errors(&diags), "{diags:?}");
     }
 }
+
+/// A hundred thousand levels of nesting are a diagnostic on a test thread's 2 MiB stack.
+#[test]
+fn deep_nesting_is_a_diagnostic() {
+    let n = 100_000;
+    let cases = [
+        format!("surface s = {}x{};", "(".repeat(n), ")".repeat(n)),
+        format!("surface s = {}x;", "-".repeat(n)),
+        format!("surface s = x{};", "^x".repeat(n)),
+        format!("surface s = x{};", " * 2".repeat(n)),
+        format!("surface s = {}1{};", "f(".repeat(n), ")".repeat(n)),
+        format!("surface s = {}x;", "- (".repeat(n)),
+    ];
+    for text in cases {
+        let (file, diags) = syntax::parse(&text);
+        assert!(file.is_none());
+        assert!(
+            diags.iter().any(|d| d.code == "E0005" || d.code == "E0003"),
+            "{diags:?}"
+        );
+        run(&text);
+    }
+}

@@ -327,6 +327,64 @@ pub fn wrong_kind(
     .maybe_help(help)
 }
 
+/// What was found where a curve is expected, for the help of `expected_curve`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FoundInsteadOfCurve {
+    Surface,
+    Patch,
+    Other,
+}
+
+const CURVE_FORMS: &str =
+    "a curve is `intersection(…)`, `circle(…)`, `boundary(P)` or `reverse(C)`";
+
+/// A name of another kind (`found` is "a surface", …) or an expression (`name` None) where a
+/// curve is expected.
+pub fn expected_curve(
+    span: Span,
+    name: Option<&str>,
+    found: &str,
+    what: FoundInsteadOfCurve,
+) -> Diagnostic {
+    let Some(name) = name else {
+        return wrong_kind(
+            span,
+            "this expression",
+            "not a curve",
+            "a curve",
+            Some(CURVE_FORMS.into()),
+        );
+    };
+    let help = match what {
+        FoundInsteadOfCurve::Surface => {
+            format!("a curve on `{name}` is, e.g., `intersection({name}, z - 1, near: (1, 0, 1))`")
+        }
+        FoundInsteadOfCurve::Patch => format!("the boundary of a patch is `boundary({name})`"),
+        FoundInsteadOfCurve::Other => CURVE_FORMS.to_string(),
+    };
+    wrong_kind(span, name, found, "a curve", Some(help))
+}
+
+/// `boundary(…)` of something that is not a patch (`name` None: an expression).
+pub fn expected_patch(span: Span, name: Option<(&str, &str)>) -> Diagnostic {
+    let help = Some("`boundary` takes the name of a patch".to_string());
+    match name {
+        Some((name, found)) => wrong_kind(span, name, found, "a patch", help),
+        None => wrong_kind(span, "this expression", "not a patch", "a patch", help),
+    }
+}
+
+/// A curve's name where a surface is expected.
+pub fn curve_as_surface(span: Span, name: &str) -> Diagnostic {
+    wrong_kind(
+        span,
+        name,
+        "a curve",
+        "a surface",
+        Some("a surface is a formula of x, y, z, a surface's or a patch's name".into()),
+    )
+}
+
 pub fn coordinate_fn_without_coordinates(
     span: Span,
     name: &str,

@@ -480,13 +480,7 @@ impl<'f> Checker<'f> {
                         }
                         Kind::Curve => {
                             self.mark_used(d, cx);
-                            self.diags.push(messages::wrong_kind(
-                                e.span,
-                                n,
-                                "a curve",
-                                "a surface",
-                                Some("a surface is a formula of x, y, z, a surface's or a patch's name".into()),
-                            ));
+                            self.diags.push(messages::curve_as_surface(e.span, n));
                             cx.failed = true;
                             return SurfaceRef::Anonymous(Box::new(number(0.0, e.span)));
                         }

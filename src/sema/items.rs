@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use glam::DVec3;
 
-use crate::diag::messages;
+use crate::diag::messages::{self, FoundInsteadOfCurve};
 use crate::span::Span;
 use crate::syntax::ast;
 
@@ -101,7 +101,6 @@ impl<'f> Checker<'f> {
     }
 
     fn not_a_curve(&mut self, e: &ast::Expr) {
-        let help = "a curve is `intersection(…)`, `circle(…)`, `boundary(P)` or `reverse(C)`";
         match &e.kind {
             ast::ExprKind::Name(n)
             | ast::ExprKind::Call {
@@ -111,27 +110,23 @@ impl<'f> Checker<'f> {
                 let d = self.globals[n.as_str()];
                 let kind = self.decls[d].kind;
                 self.decls[d].used = true;
-                let help = match kind {
-                    Kind::Surface => format!(
-                        "a curve on `{n}` is, e.g., `intersection({n}, z - 1, near: (1, 0, 1))`"
-                    ),
-                    Kind::Patch => format!("the boundary of a patch is `boundary({n})`"),
-                    _ => help.to_string(),
+                let what = match kind {
+                    Kind::Surface => FoundInsteadOfCurve::Surface,
+                    Kind::Patch => FoundInsteadOfCurve::Patch,
+                    _ => FoundInsteadOfCurve::Other,
                 };
-                self.diags.push(messages::wrong_kind(
+                self.diags.push(messages::expected_curve(
                     e.span,
-                    n,
+                    Some(n),
                     kind.article(),
-                    "a curve",
-                    Some(help),
+                    what,
                 ));
             }
-            _ => self.diags.push(messages::wrong_kind(
+            _ => self.diags.push(messages::expected_curve(
                 e.span,
-                "this expression",
-                "not a curve",
-                "a curve",
-                Some(help.into()),
+                None,
+                "",
+                FoundInsteadOfCurve::Other,
             )),
         }
     }
@@ -294,13 +289,8 @@ impl<'f> Checker<'f> {
                             return Some(CurveKind::Boundary(PatchId(self.decls[d].id)));
                         }
                         let kind = self.decls[d].kind;
-                        self.diags.push(messages::wrong_kind(
-                            p.span,
-                            n,
-                            kind.article(),
-                            "a patch",
-                            Some("`boundary` takes the name of a patch".into()),
-                        ));
+                        self.diags
+                            .push(messages::expected_patch(p.span, Some((n, kind.article()))));
                         return None;
                     }
                     let names: Vec<&str> = self
@@ -314,13 +304,7 @@ impl<'f> Checker<'f> {
                         .push(messages::unknown_name(p.span, n, s.as_deref()));
                     return None;
                 }
-                self.diags.push(messages::wrong_kind(
-                    p.span,
-                    "this expression",
-                    "not a patch",
-                    "a patch",
-                    Some("`boundary` takes the name of a patch".into()),
-                ));
+                self.diags.push(messages::expected_patch(p.span, None));
                 None
             }
             _ => {
@@ -391,7 +375,7 @@ impl<'f> Checker<'f> {
             } else {
                 names.insert(&name.name, name.span);
             }
-            let Some(mesh) = self.lower_mesh(item.span, name, surface, options) else {
+            let Some(mesh) = self.lower_mesh(name, surface, options) else {
                 continue;
             };
             let mut uses: Vec<(CurveId, Span)> = Vec::new();
@@ -465,12 +449,10 @@ impl<'f> Checker<'f> {
 
     fn lower_mesh(
         &mut self,
-        item_span: Span,
         name: &ast::Ident,
         surface: &ast::Expr,
         options: &[ast::MeshOption],
     ) -> Option<MeshDef> {
-        let _ = item_span;
         let mut ok = true;
         let mut cx = Ctx::new(Place::Surface, &[], None);
         let surface_ref = self.lower_surface_ref(surface, &mut cx);

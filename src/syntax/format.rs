@@ -4,7 +4,8 @@
 //! line of its own stays before the statement or mesh option that follows it, a comment after
 //! code on the same line stays at the end of that line, and a comment written inside an
 //! expression moves to the line before its statement (or mesh option). Empty lines between
-//! statements are kept (at most one). Long lines are not wrapped.
+//! statements are kept (at most one). A definition longer than 100 columns is broken before
+//! the top-level `+` and `-` of its body; nothing else is wrapped.
 
 use crate::span::Span;
 
@@ -100,12 +101,12 @@ fn assign<'c>(comments: &[&'c Comment], entries: &[Span]) -> Placed<'c> {
 
 fn item_text(item: &Item, comments: &[&Comment]) -> String {
     match &item.kind {
-        ItemKind::Const { name, value } => format!("const {} = {};", name.name, expr(value)),
-        ItemKind::Surface { name, body } => format!("surface {} = {};", name.name, expr(body)),
+        ItemKind::Const { name, value } => definition(&format!("const {} = ", name.name), value),
+        ItemKind::Surface { name, body } => definition(&format!("surface {} = ", name.name), body),
         ItemKind::Curve { name, value } => format!("curve {} = {};", name.name, expr(value)),
         ItemKind::Fn { name, params, body } => {
             let ps: Vec<&str> = params.iter().map(|p| p.name.as_str()).collect();
-            format!("fn {}({}) = {};", name.name, ps.join(", "), expr(body))
+            definition(&format!("fn {}({}) = ", name.name, ps.join(", ")), body)
         }
         ItemKind::Patch { name, params, body } => {
             let ps: Vec<String> = params
@@ -173,6 +174,38 @@ fn item_text(item: &Item, comments: &[&Comment]) -> String {
             s
         }
     }
+}
+
+/// Lines longer than this are broken before the top-level `+` and `-` of a definition's
+/// body, one term per line (terms themselves are not broken).
+const MAX_LINE: usize = 100;
+
+/// `head` followed by the body and `;`, broken into terms if the line would be too long.
+fn definition(head: &str, body: &Expr) -> String {
+    let one_line = format!("{head}{};", expr(body));
+    if one_line.len() <= MAX_LINE {
+        return one_line;
+    }
+    // The left spine of the sum: ((t0 ± t1) ± t2) …
+    let mut terms = Vec::new();
+    let mut e = body;
+    while let ExprKind::Binary(op @ (BinOp::Add | BinOp::Sub), l, r) = &e.kind {
+        terms.push((*op, r.as_ref()));
+        e = l;
+    }
+    if terms.is_empty() {
+        return one_line;
+    }
+    let mut s = String::from(head);
+    write_expr(&mut s, e, SUM);
+    for (op, term) in terms.iter().rev() {
+        s.push_str("\n    ");
+        s.push_str(op.symbol());
+        s.push(' ');
+        write_expr(&mut s, term, PRODUCT);
+    }
+    s.push(';');
+    s
 }
 
 /// Binding strength: what an operand position requires of the expression put there.
