@@ -118,15 +118,19 @@ fn points(lo: DVec3, hi: DVec3) -> Vec<DVec3> {
         .collect()
 }
 
-fn bench_surface(
+/// Generic over the native functions, so they are inlined into their loops (a function
+/// pointer would charge the native side a call per point).
+fn bench_surface<V, G>(
     c: &mut Criterion,
     name: &str,
     source: &str,
-    lo: DVec3,
-    hi: DVec3,
-    value: fn(DVec3) -> f64,
-    grad: fn(DVec3) -> ValueGrad,
-) {
+    (lo, hi): (DVec3, DVec3),
+    value: V,
+    grad: G,
+) where
+    V: Fn(DVec3) -> f64 + Copy,
+    G: Fn(DVec3) -> ValueGrad + Copy,
+{
     let pts = points(lo, hi);
     let mut surface = compiled(source);
     let mut values = vec![0.0; POINTS];
@@ -185,8 +189,7 @@ fn benches(c: &mut Criterion) {
         c,
         "genus3",
         GENUS3,
-        DVec3::new(-6.5, -4.0, -2.0),
-        DVec3::new(6.5, 4.0, 2.0),
+        (DVec3::new(-6.5, -4.0, -2.0), DVec3::new(6.5, 4.0, 2.0)),
         genus3_value,
         genus3_grad,
     );
@@ -194,8 +197,7 @@ fn benches(c: &mut Criterion) {
         c,
         "blend",
         BLEND,
-        DVec3::splat(-3.0),
-        DVec3::splat(3.0),
+        (DVec3::splat(-3.0), DVec3::splat(3.0)),
         blend_value,
         blend_grad,
     );
