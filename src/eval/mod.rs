@@ -11,7 +11,7 @@ pub mod ops;
 
 use glam::DVec3;
 
-use crate::compile::tape::{Op, Reg, Tape};
+use crate::compile::tape::{Arity, Op, Reg, Tape};
 use crate::surface::{Surface, ValueGrad};
 pub use ops::Grad;
 
@@ -52,6 +52,33 @@ impl GradLanes {
     }
 
     #[inline(always)]
+    fn partial(&self, k: usize) -> &[f64; LANES] {
+        match k {
+            0 => &self.dx,
+            1 => &self.dy,
+            _ => &self.dz,
+        }
+    }
+
+    #[inline(always)]
+    fn partial_mut(&mut self, k: usize) -> &mut [f64; LANES] {
+        match k {
+            0 => &mut self.dx,
+            1 => &mut self.dy,
+            _ => &mut self.dz,
+        }
+    }
+
+    /// Sets the partials whose bit is not in `mask` to 0.
+    fn zero_partials_outside(&mut self, mask: u8) {
+        for k in 0..3 {
+            if mask & (1 << k) == 0 {
+                self.partial_mut(k).fill(0.0);
+            }
+        }
+    }
+
+    #[inline(always)]
     fn get(&self, i: usize) -> Grad {
         Grad::new(self.v[i], self.dx[i], self.dy[i], self.dz[i])
     }
@@ -83,6 +110,36 @@ pub struct Vm {
     /// Whether the CPU has AVX2 (checked once): the block loops then run in a copy compiled
     /// for it, twice as wide. Results are bit-identical (no fused multiply-add).
     avx2: bool,
+    /// Per instruction: which partials (bit k: ∂/∂ input k) can be non-zero in its output and
+    /// its two operands. The gradient batch computes only those.
+    masks: Vec<[u8; 3]>,
+    /// The same for the first output register.
+    output_mask: u8,
+}
+
+/// Which partials of each instruction's output and operands can be non-zero: an input has its
+/// own, a constant none, `dist` all three, an operation the union of its operands'.
+fn partial_masks(tape: &Tape) -> (Vec<[u8; 3]>, u8) {
+    let mut reg = vec![0u8; tape.registers()];
+    for (i, m) in reg.iter_mut().enumerate().take(tape.inputs().min(3)) {
+        *m = 1 << i;
+    }
+    let mut masks = Vec::with_capacity(tape.instrs().len());
+    for ins in tape.instrs() {
+        let get = |r: Reg| reg.get(r.index()).copied().unwrap_or(0b111);
+        let (a, b) = match ins.op.arity() {
+            Arity::Child => (0, 0),
+            Arity::Unary => (get(ins.a), 0),
+            Arity::Binary => (get(ins.a), get(ins.b)),
+        };
+        let out = if ins.op == Op::Dist { 0b111 } else { a | b };
+        if let Some(m) = reg.get_mut(ins.out.index()) {
+            *m = out;
+        }
+        masks.push([out, a, b]);
+    }
+    let output = reg.get(tape.outputs()[0].index()).copied().unwrap_or(0b111);
+    (masks, output)
 }
 
 impl std::fmt::Debug for Vm {
@@ -206,6 +263,7 @@ impl Vm {
                 found: children.len(),
             });
         }
+        let (masks, output_mask) = partial_masks(&tape);
         let mut values = vec![0.0; tape.registers()];
         let mut grads = vec![Grad::default(); tape.registers()];
         for (i, &c) in tape.constants().iter().enumerate() {
@@ -220,6 +278,8 @@ impl Vm {
             lane_values: Vec::new(),
             lane_grads: Vec::new(),
             avx2: has_avx2(),
+            masks,
+            output_mask,
         })
     }
 
@@ -336,7 +396,7 @@ impl Vm {
                     regs[axis][i] = c;
                 }
             }
-            run_block(*avx2, Block::Values(regs), tape, children, n);
+            run_block(*avx2, Block::Values(regs), tape, &[], children, n);
             outs[..n].copy_from_slice(&regs[output][..n]);
         }
     }
@@ -352,6 +412,7 @@ impl Vm {
                 children,
                 lane_grads: regs,
                 avx2,
+                masks,
                 ..
             } = self;
             match (tape.inputs(), &mut regs[..]) {
@@ -370,8 +431,9 @@ impl Vm {
                     }
                 }
             }
-            run_block(*avx2, Block::Grads(regs), tape, children, n);
-            let r = &regs[output];
+            run_block(*avx2, Block::Grads(regs), tape, masks, children, n);
+            let r = &mut regs[output];
+            r.zero_partials_outside(self.output_mask);
             let lanes = r.v.iter().zip(&r.dx).zip(&r.dy).zip(&r.dz);
             for (slot, (((&v, &dx), &dy), &dz)) in outs.iter_mut().zip(lanes) {
                 *slot = ValueGrad {
@@ -379,6 +441,81 @@ impl Vm {
                     gradient: DVec3::new(dx, dy, dz),
                 };
             }
+        }
+    }
+}
+
+/// The opcodes with a sparse gradient rule in the batch evaluator: the arithmetic of
+/// polynomials, the bulk of every gallery surface.
+#[inline(always)]
+fn is_sparse(op: Op) -> bool {
+    matches!(
+        op,
+        Op::Add | Op::Sub | Op::Mul | Op::Div | Op::Neg | Op::Square
+    )
+}
+
+/// A sparse opcode over a block: the values, then each partial that can be non-zero (bit k
+/// of `mask[0]`), reading an operand's partial only where it can be non-zero. Partials
+/// outside the output's mask are left stale; readers treat them as 0. Agrees with `ops::grad`
+/// up to the sign of zero (a missing `+ 0`), since `ops::term` keeps zero partials zero.
+#[inline(always)]
+fn sparse_grad_lanes(op: Op, mask: [u8; 3], o: &mut GradLanes, a: &GradLanes, b: &GradLanes) {
+    use ops::term;
+    let (av, bv) = (&a.v, &b.v);
+    let GradLanes {
+        v: ov,
+        dx: odx,
+        dy: ody,
+        dz: odz,
+    } = o;
+    match op {
+        Op::Add => (0..LANES).for_each(|i| ov[i] = av[i] + bv[i]),
+        Op::Sub => (0..LANES).for_each(|i| ov[i] = av[i] - bv[i]),
+        Op::Mul => (0..LANES).for_each(|i| ov[i] = av[i] * bv[i]),
+        Op::Div => (0..LANES).for_each(|i| ov[i] = av[i] / bv[i]),
+        Op::Neg => (0..LANES).for_each(|i| ov[i] = -av[i]),
+        Op::Square => (0..LANES).for_each(|i| ov[i] = av[i] * av[i]),
+        _ => {}
+    }
+    let v: &[f64; LANES] = ov;
+    let binary = op.arity() == Arity::Binary;
+    for k in 0..3 {
+        let bit = 1u8 << k;
+        let (ha, hb) = (mask[1] & bit != 0, binary && mask[2] & bit != 0);
+        if !ha && !hb {
+            continue;
+        }
+        let (ad, bd) = (a.partial(k), b.partial(k));
+        let od: &mut [f64; LANES] = match k {
+            0 => &mut *odx,
+            1 => &mut *ody,
+            _ => &mut *odz,
+        };
+        match (op, ha, hb) {
+            (Op::Add, true, true) => (0..LANES).for_each(|i| od[i] = ad[i] + bd[i]),
+            (Op::Add, true, false) => *od = *ad,
+            (Op::Add, false, true) => *od = *bd,
+            (Op::Sub, true, true) => (0..LANES).for_each(|i| od[i] = ad[i] - bd[i]),
+            (Op::Sub, true, false) => *od = *ad,
+            (Op::Sub, false, true) => (0..LANES).for_each(|i| od[i] = -bd[i]),
+            (Op::Mul, true, true) => {
+                (0..LANES).for_each(|i| od[i] = term(bv[i], ad[i]) + term(av[i], bd[i]))
+            }
+            (Op::Mul, true, false) => (0..LANES).for_each(|i| od[i] = term(bv[i], ad[i])),
+            (Op::Mul, false, true) => (0..LANES).for_each(|i| od[i] = term(av[i], bd[i])),
+            (Op::Div, true, true) => (0..LANES).for_each(|i| {
+                let r = 1.0 / bv[i];
+                od[i] = term(r, ad[i]) + term(-v[i] * r, bd[i]);
+            }),
+            (Op::Div, true, false) => (0..LANES).for_each(|i| od[i] = term(1.0 / bv[i], ad[i])),
+            (Op::Div, false, true) => (0..LANES).for_each(|i| {
+                let r = 1.0 / bv[i];
+                od[i] = term(-v[i] * r, bd[i]);
+            }),
+            (Op::Neg, _, _) => (0..LANES).for_each(|i| od[i] = -ad[i]),
+            (Op::Square, _, _) => (0..LANES).for_each(|i| od[i] = term(2.0 * av[i], ad[i])),
+            _ => {}
         }
     }
 }
@@ -406,17 +543,18 @@ fn run_block(
     avx2: bool,
     regs: Block<'_>,
     tape: &Tape,
+    masks: &[[u8; 3]],
     children: &mut [Box<dyn Surface>],
     n: usize,
 ) {
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: the CPU has AVX2 (`has_avx2`, checked when the Vm was built).
-        unsafe { run_block_avx2(regs, tape, children, n) };
+        unsafe { run_block_avx2(regs, tape, masks, children, n) };
         return;
     }
     let _ = avx2;
-    run_block_generic(regs, tape, children, n);
+    run_block_generic(regs, tape, masks, children, n);
 }
 
 /// `run_block_generic` compiled for AVX2.
@@ -428,14 +566,21 @@ fn run_block(
 unsafe fn run_block_avx2(
     regs: Block<'_>,
     tape: &Tape,
+    masks: &[[u8; 3]],
     children: &mut [Box<dyn Surface>],
     n: usize,
 ) {
-    run_block_generic(regs, tape, children, n);
+    run_block_generic(regs, tape, masks, children, n);
 }
 
 #[inline(always)]
-fn run_block_generic(regs: Block<'_>, tape: &Tape, children: &mut [Box<dyn Surface>], n: usize) {
+fn run_block_generic(
+    regs: Block<'_>,
+    tape: &Tape,
+    masks: &[[u8; 3]],
+    children: &mut [Box<dyn Surface>],
+    n: usize,
+) {
     match regs {
         Block::Values(regs) => {
             for ins in tape.instrs() {
@@ -458,7 +603,7 @@ fn run_block_generic(regs: Block<'_>, tape: &Tape, children: &mut [Box<dyn Surfa
             }
         }
         Block::Grads(regs) => {
-            for ins in tape.instrs() {
+            for (ins, &mask) in tape.instrs().iter().zip(masks) {
                 let o = ins.out.index();
                 if ins.op == Op::Dist {
                     let (Some(child), Some((lo, hi))) = (
@@ -475,8 +620,22 @@ fn run_block_generic(regs: Block<'_>, tape: &Tape, children: &mut [Box<dyn Surfa
                     }
                     continue;
                 }
+                if !is_sparse(ins.op) {
+                    // The dense rule reads every partial: make the structurally zero ones 0.
+                    let binary = ins.op.arity() == Arity::Binary;
+                    let operands = [Some((ins.a, mask[1])), binary.then_some((ins.b, mask[2]))];
+                    for (r, m) in operands.into_iter().flatten() {
+                        if let Some(reg) = regs.get_mut(r.index()) {
+                            reg.zero_partials_outside(m);
+                        }
+                    }
+                }
                 if let Some((out, a, b)) = split3(regs, o, ins.a.index(), ins.b.index()) {
-                    grad_lanes(ins.op, out, a, b);
+                    if is_sparse(ins.op) {
+                        sparse_grad_lanes(ins.op, mask, out, a, b);
+                    } else {
+                        grad_lanes(ins.op, out, a, b);
+                    }
                 }
             }
         }
