@@ -40,12 +40,16 @@ pub(crate) fn read(path: &Path, color: ColorMode) -> Result<String, u8> {
             return Err(EXIT_USAGE);
         }
     };
-    match String::from_utf8(bytes) {
-        Ok(s) => Ok(s),
-        Err(e) => {
-            let offset = e.utf8_error().valid_up_to();
-            let d = diag::messages::not_utf8(offset);
-            diag::emit_stderr(&[d], &path.display().to_string(), "", stderr_color(color));
+    match syntax::source_text(&bytes) {
+        Ok(s) => Ok(s.to_string()),
+        Err(d) => {
+            let lossy = String::from_utf8_lossy(&bytes);
+            diag::emit_stderr(
+                &[d],
+                &path.display().to_string(),
+                &lossy,
+                stderr_color(color),
+            );
             Err(EXIT_INPUT)
         }
     }

@@ -105,8 +105,15 @@ pub fn unterminated_comment(span: Span) -> Diagnostic {
 
 pub fn unclosed_paren(opens: &[Span]) -> Diagnostic {
     let mut d = Diagnostic::error("E0003", "unclosed `(`");
-    for &s in opens {
+    // The outermost few are enough to find the place.
+    for &s in opens.iter().take(3) {
         d = d.primary(s, "this `(` is never closed");
+    }
+    if opens.len() > 3 {
+        d = d.note(format!(
+            "{} more `(` are not closed either",
+            opens.len() - 3
+        ));
     }
     d.help("add the missing `)` before the end of the statement")
 }
@@ -194,12 +201,17 @@ pub fn expected_statement(found: Span, found_text: &str, keywords: &[&str]) -> D
     }
 }
 
-pub fn not_utf8(offset: usize) -> Diagnostic {
+/// `offset` is the first invalid byte; the label covers the replacement character that a
+/// lossy decoding puts there (render the diagnostic with that decoding).
+pub fn not_utf8(offset: usize, line: usize) -> Diagnostic {
     Diagnostic::error("E0009", "the file is not UTF-8 text")
         .primary(
-            Span::new(0, 0),
-            format!("the first invalid byte is at offset {offset}"),
+            Span::new(offset, offset + char::REPLACEMENT_CHARACTER.len_utf8()),
+            "not a UTF-8 character",
         )
+        .note(format!(
+            "the first invalid byte is on line {line}, at byte offset {offset}"
+        ))
         .help("save the file as UTF-8")
 }
 
@@ -580,7 +592,7 @@ pub fn patch_meshed(span: Span, name: &str) -> Diagnostic {
 pub fn unused(span: Span, what: &str, name: &str) -> Diagnostic {
     Diagnostic::warning("W0001", format!("{what} `{name}` is never used"))
         .primary(span, "defined here")
-        .help(format!("remove it, or prefix its name with `_` to keep it"))
+        .help("remove it, or prefix its name with `_` to keep it")
 }
 
 pub fn start_ignored(start: Span, front: Span) -> Diagnostic {

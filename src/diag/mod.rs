@@ -108,12 +108,39 @@ pub fn has_errors(diags: &[Diagnostic]) -> bool {
     diags.iter().any(Diagnostic::is_error)
 }
 
-fn to_codespan(d: &Diagnostic, source_len: usize) -> cs::Diagnostic<()> {
+/// Source lines longer than this are not quoted: a label on one becomes a note with its line
+/// and column (a megabyte-long line would otherwise be printed once per label).
+const MAX_QUOTED_LINE: usize = 1000;
+
+/// The 1-based line and column of `offset`, and the length of its line.
+fn locate(source: &str, offset: usize) -> (usize, usize, usize) {
+    let offset = offset.min(source.len());
+    let line_start = source[..offset].rfind('\n').map_or(0, |p| p + 1);
+    let line_end = source[offset..]
+        .find('\n')
+        .map_or(source.len(), |p| offset + p);
+    let line = source[..line_start].bytes().filter(|&b| b == b'\n').count() + 1;
+    let column = source[line_start..offset].chars().count() + 1;
+    (line, column, line_end - line_start)
+}
+
+fn to_codespan(d: &Diagnostic, source: &str) -> cs::Diagnostic<()> {
+    let source_len = source.len();
     let clamp = |s: Span| {
         let r = s.range();
         let end = r.end.min(source_len);
-        r.start.min(end)..end
+        let start = r.start.min(end);
+        // Keep both ends on char boundaries (spans come from our own scanner, but a clamp
+        // could land inside a character).
+        let fix = |mut p: usize| {
+            while p > 0 && !source.is_char_boundary(p) {
+                p -= 1;
+            }
+            p
+        };
+        fix(start)..fix(end)
     };
+    let mut long_line_notes = Vec::new();
     let severity = match d.severity {
         Severity::Error => cs::Severity::Error,
         Severity::Warning => cs::Severity::Warning,
@@ -121,6 +148,14 @@ fn to_codespan(d: &Diagnostic, source_len: usize) -> cs::Diagnostic<()> {
     let labels = d
         .labels
         .iter()
+        .filter(|l| {
+            let (line, column, len) = locate(source, l.span.start as usize);
+            let quoted = len <= MAX_QUOTED_LINE;
+            if !quoted {
+                long_line_notes.push(format!("at line {line}, column {column}: {}", l.message));
+            }
+            quoted
+        })
         .map(|l| {
             let style = if l.primary {
                 cs::LabelStyle::Primary
@@ -130,7 +165,7 @@ fn to_codespan(d: &Diagnostic, source_len: usize) -> cs::Diagnostic<()> {
             cs::Label::new(style, (), clamp(l.span)).with_message(l.message.clone())
         })
         .collect();
-    let mut notes = Vec::new();
+    let mut notes = long_line_notes;
     if let Some(h) = &d.help {
         notes.push(format!("help: {h}"));
     }
@@ -175,7 +210,7 @@ fn write_to<W: termcolor::WriteColor>(
     let file = SimpleFile::new(file_name, source);
     let config = term::Config::default();
     for d in diags {
-        let cd = to_codespan(d, source.len());
+        let cd = to_codespan(d, source);
         if term::emit_to_write_style(writer, &config, &file, &cd).is_err() {
             // A span that codespan cannot place (never expected after clamping): print the
             // message alone rather than lose it.

@@ -132,10 +132,9 @@ impl Checker<'_> {
     }
 
     /// The value of the constant declared as `d`.
-    pub(crate) fn const_value(&mut self, e: &ast::Expr, d: usize) -> f64 {
+    pub(crate) fn const_value(&mut self, e: &ast::Expr, d: usize) -> Option<f64> {
         let what = format!("constant `{}`", self.decls[d].name.name);
         self.number_in(e, Place::Const, Some(d), &what)
-            .unwrap_or(0.0)
     }
 
     /// A point `(x, y, z)` of constant expressions.

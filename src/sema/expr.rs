@@ -252,9 +252,12 @@ impl<'f> Checker<'f> {
         if CURVE_CONSTRUCTORS.contains(&n) {
             return self.fail(cx, messages::curve_as_value(span, &format!("`{n}`")));
         }
-        let names = self.visible_names(cx);
-        let suggestion =
-            super::suggest::nearest(n, names.iter().map(String::as_str)).map(str::to_string);
+        let suggestion = if self.suggestions_wanted() {
+            let names = self.visible_names(cx);
+            super::suggest::nearest(n, names.iter().map(String::as_str)).map(str::to_string)
+        } else {
+            None
+        };
         let d = messages::unknown_name(span, n, suggestion.as_deref());
         self.fail(cx, d)
     }
@@ -373,8 +376,11 @@ impl<'f> Checker<'f> {
         if CURVE_CONSTRUCTORS.contains(&name) {
             return self.fail(cx, messages::curve_as_value(span, &format!("`{name}(…)`")));
         }
-        let names = self.callable_names();
-        let suggestion = super::suggest::nearest(name, names).map(str::to_string);
+        let suggestion = if self.suggestions_wanted() {
+            super::suggest::nearest(name, self.callable_names()).map(str::to_string)
+        } else {
+            None
+        };
         let d = messages::unknown_function(callee.span, name, suggestion.as_deref());
         self.fail(cx, d)
     }

@@ -489,9 +489,11 @@ impl<'f> Checker<'f> {
         }
         ok &= !cx.failed;
         let mut seen: BTreeMap<&str, &ast::MeshOption> = BTreeMap::new();
+        let mut unknown_options = false;
         for o in options {
             let key = o.name.name.as_str();
             if !MESH_OPTIONS.contains(&key) {
+                unknown_options = true;
                 let s = super::suggest::nearest(key, MESH_OPTIONS).map(str::to_string);
                 self.diags.push(messages::unknown_mesh_option(
                     o.name.span,
@@ -628,8 +630,11 @@ impl<'f> Checker<'f> {
                 None => ok = false,
             }
         }
-        if !seen.contains_key("start") && !seen.contains_key("front") {
+        // A misspelt `start` or `front` is already reported as an unknown option.
+        if !seen.contains_key("start") && !seen.contains_key("front") && !unknown_options {
             self.diags.push(messages::no_start(name.span, &name.name));
+        }
+        if !seen.contains_key("start") && !seen.contains_key("front") {
             ok = false;
         }
         if let (Some(s), Some(f)) = (seen.get("start"), seen.get("front")) {

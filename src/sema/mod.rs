@@ -12,6 +12,8 @@ mod graph;
 mod items;
 pub mod program;
 pub mod suggest;
+#[cfg(test)]
+mod tests;
 
 use std::collections::BTreeMap;
 
@@ -212,6 +214,11 @@ impl<'f> Checker<'f> {
         match &item.kind {
             ast::ItemKind::Const { value, .. } => {
                 let v = self.const_value(value, d);
+                // Without a value, its users stay silent rather than see a placeholder.
+                if v.is_none() {
+                    self.decls[d].broken = true;
+                }
+                let v = v.unwrap_or(0.0);
                 self.constants[id as usize] = Some(ConstDef {
                     name: name.name.clone(),
                     span: name.span,
@@ -258,12 +265,23 @@ impl<'f> Checker<'f> {
 
     /// Reports parameters declared twice.
     pub(crate) fn check_params(&mut self, params: Vec<&ast::Ident>) {
-        for (k, p) in params.iter().enumerate() {
-            if let Some(first) = params[..k].iter().find(|q| q.name == p.name) {
-                self.diags
-                    .push(messages::duplicate_parameter(&p.name, first.span, p.span));
+        let mut first: BTreeMap<&str, Span> = BTreeMap::new();
+        for p in params {
+            match first.get(p.name.as_str()) {
+                Some(&f) => self
+                    .diags
+                    .push(messages::duplicate_parameter(&p.name, f, p.span)),
+                None => {
+                    first.insert(&p.name, p.span);
+                }
             }
         }
+    }
+
+    /// Whether a "did you mean" is still worth computing: past a screenful of diagnostics
+    /// nobody reads them, and each costs a pass over every name.
+    pub(crate) fn suggestions_wanted(&self) -> bool {
+        self.diags.len() < MAX_DIAGNOSTICS
     }
 
     fn warn_unused(&mut self) {

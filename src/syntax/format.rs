@@ -18,13 +18,13 @@ pub fn format(file: &File) -> String {
     comments.sort_by_key(|c| c.span.start);
     let entries: Vec<Span> = file.items.iter().map(|i| i.span).collect();
     // Comments inside a mesh block are placed by the block itself.
-    let (inside_mesh, top): (Vec<&Comment>, Vec<&Comment>) = comments.iter().partition(|c| {
-        file.items.iter().any(|i| {
-            matches!(i.kind, ItemKind::Mesh { .. })
-                && c.span.start > i.span.start
-                && c.span.end <= i.span.end
-        })
-    });
+    let (inside_mesh, top): (Vec<&Comment>, Vec<&Comment>) =
+        comments
+            .iter()
+            .partition(|c| match containing(&entries, c.span) {
+                Some(k) => matches!(file.items[k].kind, ItemKind::Mesh { .. }),
+                None => false,
+            });
     let placed = assign(&top, &entries);
     for (k, item) in file.items.iter().enumerate() {
         for (n, c) in placed.leading[k].iter().enumerate() {
@@ -38,12 +38,10 @@ pub fn format(file: &File) -> String {
         if !out.is_empty() && item.blank_line_before && !out.ends_with("\n\n") {
             out.push('\n');
         }
-        let mine: Vec<&Comment> = inside_mesh
-            .iter()
-            .copied()
-            .filter(|c| c.span.start > item.span.start && c.span.end <= item.span.end)
-            .collect();
-        out.push_str(&item_text(item, &mine));
+        let from = inside_mesh.partition_point(|c| c.span.start < item.span.start);
+        let to = inside_mesh.partition_point(|c| c.span.start < item.span.end);
+        let mine = &inside_mesh[from..to.max(from)];
+        out.push_str(&item_text(item, mine));
         for c in &placed.trailing[k] {
             out.push(' ');
             out.push_str(&c.text);
@@ -58,6 +56,14 @@ pub fn format(file: &File) -> String {
         out.push('\n');
     }
     out
+}
+
+/// The entry (in source order, not overlapping) whose span contains `span`'s start.
+fn containing(entries: &[Span], span: Span) -> Option<usize> {
+    let k = entries
+        .partition_point(|e| e.start <= span.start)
+        .checked_sub(1)?;
+    (span.start < entries[k].end).then_some(k)
 }
 
 struct Placed<'c> {
@@ -75,15 +81,14 @@ fn assign<'c>(comments: &[&'c Comment], entries: &[Span]) -> Placed<'c> {
         footer: Vec::new(),
     };
     for &c in comments {
-        let inside = entries
-            .iter()
-            .position(|e| c.span.start >= e.start && c.span.start < e.end);
-        if let Some(k) = inside {
+        if let Some(k) = containing(entries, c.span) {
             placed.leading[k].push(c);
             continue;
         }
-        let prev = entries.iter().rposition(|e| e.end <= c.span.start);
-        let next = entries.iter().position(|e| e.start >= c.span.end);
+        // Entries are in source order and do not overlap.
+        let after = entries.partition_point(|e| e.start < c.span.start);
+        let prev = after.checked_sub(1);
+        let next = (after < entries.len()).then_some(after);
         match (prev, next) {
             (Some(p), _) if !c.own_line => placed.trailing[p].push(c),
             (_, Some(n)) => placed.leading[n].push(c),

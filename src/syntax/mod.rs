@@ -37,6 +37,16 @@ pub mod limits {
     pub const MAX_SYNTAX_DIAGNOSTICS: usize = 30;
 }
 
+/// The text of a file's bytes, or the diagnostic for a file that is not UTF-8 (E0009), to be
+/// rendered with `String::from_utf8_lossy(bytes)` as the source.
+pub fn source_text(bytes: &[u8]) -> Result<&str, Diagnostic> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let offset = e.valid_up_to();
+        let line = bytes[..offset].iter().filter(|&&b| b == b'\n').count() + 1;
+        messages::not_utf8(offset, line)
+    })
+}
+
 /// Parses a file. The AST is `Some` only if there is no syntax error; the diagnostics are
 /// every syntax error found (capped at `limits::MAX_SYNTAX_DIAGNOSTICS`).
 pub fn parse(source: &str) -> (Option<ast::File>, Vec<Diagnostic>) {
@@ -56,7 +66,7 @@ pub fn parse(source: &str) -> (Option<ast::File>, Vec<Diagnostic>) {
         if diags.len() >= limits::MAX_SYNTAX_DIAGNOSTICS {
             // Count what is left by statement starts, roughly: enough to tell the user.
             suppressed += 1;
-            pos = recover(source, pos, pos + 1);
+            pos = recover(source, pos, pos + 1, false);
             continue;
         }
         match SurfParser::parse(Rule::statement_only, &source[pos..]) {
@@ -89,7 +99,9 @@ pub fn parse(source: &str) -> (Option<ast::File>, Vec<Diagnostic>) {
                     pest::error::ErrorVariant::CustomError { .. } => (Vec::new(), Vec::new()),
                 };
                 diags.push(syntax_error(source, pos, at, &positives, &negatives));
-                pos = recover(source, pos, at);
+                // After a missing `;` the next statement starts where the error is.
+                let resume_at_error = positives.contains(&Rule::semi);
+                pos = recover(source, pos, at, resume_at_error);
             }
         }
     }
@@ -173,6 +185,10 @@ fn syntax_error(
             }
         }
     }
+    // A name or a `(` is already an expression.
+    if expected.contains(&"an expression") {
+        expected.retain(|d| *d != "a name" && *d != "`(`");
+    }
     if expected.is_empty() && !negatives.is_empty() {
         expected.push("a name");
     }
@@ -182,8 +198,9 @@ fn syntax_error(
 
 /// Where to resume after a syntax error at `at` in the statement starting at `start`: after
 /// the enclosing mesh block if the error is inside one, else at the next `;` or `}` (after
-/// it) or the next statement keyword, whichever comes first.
-fn recover(src: &str, start: usize, at: usize) -> usize {
+/// it) or the next statement keyword, whichever comes first (the token at `at` itself only
+/// if `resume_at_error`).
+fn recover(src: &str, start: usize, at: usize, resume_at_error: bool) -> usize {
     let bytes = src.as_bytes();
     let in_block = statement_keyword(src, start) == Some("mesh")
         && src[start..at.min(src.len())].contains('{');
@@ -201,7 +218,7 @@ fn recover(src: &str, start: usize, at: usize) -> usize {
             }
         } else if bytes[ts] == b';' || bytes[ts] == b'}' {
             return te;
-        } else if ts > start && KEYWORDS.contains(&text) {
+        } else if ts > start && (ts > at || resume_at_error) && KEYWORDS.contains(&text) {
             return ts;
         }
         p = te;

@@ -1,0 +1,202 @@
+//! Diagnostics: every malformed file of `fixtures/errors/` (one mistake class each) is
+//! rendered without colour and snapshotted together with its source; and the built binary's
+//! exit codes: examples 0, fixtures 1 with an error code on stderr, a missing file 2.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use surfc::diag::{self, Diagnostic, messages::CODES};
+use surfc::{sema, syntax};
+
+fn diagnose(bytes: &[u8]) -> (String, Vec<Diagnostic>) {
+    let source = match syntax::source_text(bytes) {
+        Ok(s) => s.to_string(),
+        Err(d) => return (String::from_utf8_lossy(bytes).into_owned(), vec![d]),
+    };
+    let (file, mut diags) = syntax::parse(&source);
+    if let Some(file) = file {
+        let (_, more) = sema::check(&file);
+        diags.extend(more);
+    }
+    (source, diags)
+}
+
+#[test]
+fn fixtures_render_their_diagnostics() {
+    insta::glob!("fixtures/errors/*.surf", |path| {
+        let bytes = std::fs::read(path).expect("fixture is readable");
+        let (source, diags) = diagnose(&bytes);
+        let name = path
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        assert!(diag::has_errors(&diags), "{name}: no error reported");
+        for d in &diags {
+            for l in &d.labels {
+                assert!(
+                    l.span.start <= l.span.end && (l.span.end as usize) <= source.len(),
+                    "{name}: label outside the source"
+                );
+            }
+        }
+        let rendered = diag::render(&diags, &name, &source, false);
+        insta::assert_snapshot!(format!("--- source\n{source}--- diagnostics\n{rendered}"));
+    });
+}
+
+/// Every error code a user can meet appears in some fixture.
+#[test]
+fn every_code_has_a_fixture() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/errors");
+    let mut seen = std::collections::BTreeSet::new();
+    for entry in std::fs::read_dir(&dir).expect("fixtures dir") {
+        let path = entry.expect("entry").path();
+        let (_, diags) = diagnose(&std::fs::read(&path).expect("readable"));
+        seen.extend(diags.iter().map(|d| d.code));
+    }
+    // E0010 needs more than a screenful of errors, E0099 is a bug of ours.
+    let missing: Vec<&str> = CODES
+        .iter()
+        .map(|(c, _)| *c)
+        .filter(|c| !seen.contains(c) && !["E0010", "E0099"].contains(c))
+        .collect();
+    assert!(missing.is_empty(), "codes without a fixture: {missing:?}");
+}
+
+fn surfc(args: &[&str]) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
+        .args(args)
+        .output()
+        .expect("surfc runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn files(dir: &str) -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(dir);
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .expect("dir")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "surf"))
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn binary_accepts_every_example() {
+    let examples = files("examples");
+    assert!(examples.len() >= 11);
+    for p in examples {
+        let (code, stderr) = surfc(&["check", "--color", "never", p.to_str().expect("utf-8 path")]);
+        assert_eq!(code, 0, "{}: {stderr}", p.display());
+        assert!(!stderr.contains("error"), "{}: {stderr}", p.display());
+    }
+}
+
+#[test]
+fn binary_rejects_every_fixture() {
+    for p in files("tests/fixtures/errors") {
+        let (code, stderr) = surfc(&["check", "--color", "never", p.to_str().expect("utf-8 path")]);
+        assert_eq!(code, 1, "{}: {stderr}", p.display());
+        assert!(stderr.contains("error[E"), "{}: {stderr}", p.display());
+        assert!(!stderr.contains('\u{1b}'), "colour with --color never");
+    }
+}
+
+#[test]
+fn binary_missing_file_is_exit_2() {
+    let (code, stderr) = surfc(&["check", "no/such/file.surf"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("no/such/file.surf"), "{stderr}");
+    // A missing file among good ones still fails with 2.
+    let sphere = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sphere.surf");
+    let (code, _) = surfc(&[
+        "check",
+        sphere.to_str().expect("utf-8"),
+        "no/such/file.surf",
+    ]);
+    assert_eq!(code, 2);
+}
+
+#[test]
+fn binary_colours_only_when_asked() {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/errors/unknown_name.surf");
+    let (_, stderr) = surfc(&["check", "--color", "always", p.to_str().expect("utf-8")]);
+    assert!(stderr.contains('\u{1b}'), "no colour with --color always");
+}
+
+fn temp_file(contents: &[u8]) -> tempfile::NamedTempFile {
+    let mut f = tempfile::Builder::new()
+        .suffix(".surf")
+        .tempfile()
+        .expect("temp file");
+    std::io::Write::write_all(&mut f, contents).expect("write");
+    f
+}
+
+/// Deep nesting is a diagnostic, never a stack overflow, on the main thread's stack too.
+#[test]
+fn binary_survives_deep_nesting() {
+    let n = 100_000;
+    let cases = [
+        format!("surface s = {}x{};", "(".repeat(n), ")".repeat(n)),
+        format!("surface s = {}x;", "-".repeat(n)),
+        format!("surface s = x{};", "^x".repeat(n)),
+        format!("surface s = x{};", " + 1".repeat(n)),
+        format!("const c = {}1{};", "sqrt(".repeat(n), ")".repeat(n)),
+    ];
+    for text in cases {
+        let f = temp_file(text.as_bytes());
+        let (code, stderr) = surfc(&[
+            "check",
+            "--color",
+            "never",
+            f.path().to_str().expect("utf-8"),
+        ]);
+        assert_eq!(code, 1, "{}", &text[..40]);
+        assert!(stderr.contains("E0005"), "{stderr}");
+    }
+}
+
+#[test]
+fn binary_rejects_non_utf8_and_random_bytes() {
+    let f = temp_file(b"surface s = x\xff;");
+    let (code, stderr) = surfc(&[
+        "check",
+        "--color",
+        "never",
+        f.path().to_str().expect("utf-8"),
+    ]);
+    assert_eq!(code, 1);
+    assert!(stderr.contains("E0009"), "{stderr}");
+    // Several MB of printable noise: rejected with a bounded number of diagnostics.
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let noise: String = (0..4_000_000)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (b' ' + (state % 95) as u8) as char
+        })
+        .collect();
+    let f = temp_file(noise.as_bytes());
+    let (code, stderr) = surfc(&[
+        "check",
+        "--color",
+        "never",
+        f.path().to_str().expect("utf-8"),
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains("more errors not shown"),
+        "{}",
+        &stderr[..stderr.len().min(2000)]
+    );
+    assert!(
+        stderr.len() < 100_000,
+        "{} bytes of diagnostics",
+        stderr.len()
+    );
+}
