@@ -15,12 +15,12 @@ use crate::compile::tape::{Arity, Op, Reg, Tape};
 use crate::surface::{Surface, ValueGrad};
 pub use ops::Grad;
 
-/// Points per batch block: 32 keeps a register (4 × 32 f64 with gradients) at 1 KiB, so the
-/// working set of a tape of a few dozen registers stays in the L1 cache.
-pub const LANES: usize = 64;
+/// Points per block of the gradient batch path. Measured on the genus-3 and blend benches
+/// (32 to 1024): long lane loops amortise each instruction's dispatch and its per-partial
+/// branches; at 256 a register is 8 KiB and a gallery tape's registers stay in L2.
+pub const LANES: usize = 256;
 
-/// Points per block of the value-only batch path: registers are 1 KiB here too, and longer
-/// lane loops amortise the dispatch of each instruction.
+/// Points per block of the value-only batch path (a register is 1 KiB).
 pub const VALUE_LANES: usize = 128;
 
 type Lanes = [f64; VALUE_LANES];
