@@ -5,7 +5,9 @@
 //! The registers live in the [`Vm`] and are reused, so an evaluation allocates nothing. The
 //! batch path keeps the instruction dispatch outside the point loop: it runs each instruction
 //! over [`LANES`] points at a time (structure-of-arrays registers), which lets the compiler
-//! vectorise the arithmetic. `dist` instructions call the tape's child surfaces.
+//! vectorise the arithmetic (in an AVX2 copy where the CPU has it), and computes only the
+//! partials that can be non-zero (per-instruction masks). `dist` instructions call the tape's
+//! child surfaces. `docs/compiler.md` has the measurements behind these choices.
 
 pub mod ops;
 
