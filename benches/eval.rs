@@ -17,28 +17,22 @@ use surfc::surface::{Surface, ValueGrad};
 /// Points a batch: 1 M.
 const POINTS: usize = 1 << 20;
 
-const GENUS3: &str = "const rx = 6;
-const ry = 3.5;
-const rz = 4;
-const r1 = 1.2;
-const x1 = 3.9;
-surface genus3 = rz^4 * z^2
-    - (1 - (x / rx)^2 - (y / ry)^2) * ((x - x1)^2 + y^2 - r1^2) * (x^2 + y^2 - r1^2)
-        * ((x + x1)^2 + y^2 - r1^2);
-";
+const GENUS3: &str = include_str!("../examples/genus3.surf");
+const BLEND: &str = include_str!("../examples/blend_three_cylinders.surf");
 
-const BLEND: &str = "const mu = 0.0003;
-surface cylinder_blend = (1 - mu) * (x^2 + y^2 - 1) * (x^2 + z^2 - 1) * (y^2 + z^2 - 1)
-    - mu * (9 - x^2 - y^2 - z^2)^3;
-";
-
-fn compiled(source: &str) -> CompiledSurface {
+fn compiled(source: &str, name: &str) -> CompiledSurface {
     let (file, diags) = surfc::syntax::parse(source);
     let file = file.unwrap_or_else(|| panic!("{diags:?}"));
     let (program, _) = surfc::sema::check(&file);
     let mut no_dist =
         |_: &SurfaceRef| -> Result<Box<dyn Surface>, std::convert::Infallible> { unreachable!() };
-    compile_surface(&program, &SurfaceRef::Surface(SurfaceId(0)), &mut no_dist).unwrap()
+    let id = program
+        .surfaces
+        .iter()
+        .position(|s| s.name == name)
+        .unwrap();
+    let r = SurfaceRef::Surface(SurfaceId(id as u32));
+    compile_surface(&program, &r, &mut no_dist).unwrap()
 }
 
 const RX: f64 = 6.0;
@@ -118,17 +112,21 @@ fn points(lo: DVec3, hi: DVec3) -> Vec<DVec3> {
         .collect()
 }
 
-fn bench_surface(
+/// Generic over the native functions, so they are inlined into their loops (a function
+/// pointer would charge the native side a call per point).
+fn bench_surface<V, G>(
     c: &mut Criterion,
     name: &str,
-    source: &str,
-    lo: DVec3,
-    hi: DVec3,
-    value: fn(DVec3) -> f64,
-    grad: fn(DVec3) -> ValueGrad,
-) {
+    (source, surface_name): (&str, &str),
+    (lo, hi): (DVec3, DVec3),
+    value: V,
+    grad: G,
+) where
+    V: Fn(DVec3) -> f64 + Copy,
+    G: Fn(DVec3) -> ValueGrad + Copy,
+{
     let pts = points(lo, hi);
-    let mut surface = compiled(source);
+    let mut surface = compiled(source, surface_name);
     let mut values = vec![0.0; POINTS];
     let zero = ValueGrad {
         value: 0.0,
@@ -184,18 +182,16 @@ fn benches(c: &mut Criterion) {
     bench_surface(
         c,
         "genus3",
-        GENUS3,
-        DVec3::new(-6.5, -4.0, -2.0),
-        DVec3::new(6.5, 4.0, 2.0),
+        (GENUS3, "genus3"),
+        (DVec3::new(-6.5, -4.0, -2.0), DVec3::new(6.5, 4.0, 2.0)),
         genus3_value,
         genus3_grad,
     );
     bench_surface(
         c,
         "blend",
-        BLEND,
-        DVec3::splat(-3.0),
-        DVec3::splat(3.0),
+        (BLEND, "cylinder_blend"),
+        (DVec3::splat(-3.0), DVec3::splat(3.0)),
         blend_value,
         blend_grad,
     );

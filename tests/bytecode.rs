@@ -6,7 +6,7 @@ use compile_common as common;
 
 use std::collections::HashMap;
 
-use common::{BLEND, GENUS3, SPHERE, program, surface_id};
+use common::{program, surface_id};
 use surfc::compile::tape::{Arity, Op, Tape};
 use surfc::compile::{listing, lower_surface};
 use surfc::sema::program::SurfaceRef;
@@ -41,32 +41,52 @@ fn assert_no_recomputation(tape: &Tape) {
     assert_eq!(constants.len(), tape.constants().len());
 }
 
+const SPHERE: &str = include_str!("../examples/sphere.surf");
+const GENUS3: &str = include_str!("../examples/genus3.surf");
+const BLEND: &str = include_str!("../examples/blend_three_cylinders.surf");
+
+/// The snapshot: which example and surface, the surface's definition, then the listing.
+fn snapshot(file: &str, source: &str, name: &str, text: &str) -> String {
+    let def: String = source
+        .lines()
+        .skip_while(|l| !l.starts_with(&format!("surface {name} ")))
+        .take_while(|l| !l.is_empty())
+        .map(|l| format!("{l}\n"))
+        .collect();
+    format!("examples/{file}, surface {name}:\n{def}\n{text}")
+}
+
 #[test]
 fn sphere_listing() {
     let (text, tape) = lowered(SPHERE, "sphere");
     assert_no_recomputation(&tape);
-    insta::assert_snapshot!(format!("{SPHERE}\n{text}"));
+    insta::assert_snapshot!(snapshot("sphere.surf", SPHERE, "sphere", &text));
 }
 
 #[test]
 fn genus3_listing() {
     let (text, tape) = lowered(GENUS3, "genus3");
     assert_no_recomputation(&tape);
-    // x², y² and z² once each, though the formula writes x² and y² several times.
+    // x², y² and z² once each, though the formula writes y² four times.
     let squares_of_inputs = tape
         .instrs()
         .iter()
         .filter(|i| i.op == Op::Square && i.a.index() < 3)
         .count();
     assert_eq!(squares_of_inputs, 3, "{text}");
-    insta::assert_snapshot!(format!("{GENUS3}\n{text}"));
+    insta::assert_snapshot!(snapshot("genus3.surf", GENUS3, "genus3", &text));
 }
 
 #[test]
 fn blend_listing() {
     let (text, tape) = lowered(BLEND, "cylinder_blend");
     assert_no_recomputation(&tape);
-    insta::assert_snapshot!(format!("{BLEND}\n{text}"));
+    insta::assert_snapshot!(snapshot(
+        "blend_three_cylinders.surf",
+        BLEND,
+        "cylinder_blend",
+        &text
+    ));
 }
 
 #[test]

@@ -166,3 +166,127 @@ pub fn listing(program: &Program, lowered: &Lowered) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sema::program::{Axis, BinaryOp, Expr, ExprKind, FnDef, PatchDef, SurfaceDef};
+
+    fn e(kind: ExprKind) -> Expr {
+        Expr {
+            kind,
+            span: Span::new(3, 7),
+        }
+    }
+
+    fn surface(name: &str, body: Expr) -> SurfaceDef {
+        SurfaceDef {
+            name: name.into(),
+            span: Span::default(),
+            body,
+        }
+    }
+
+    fn lower(p: &Program, id: u32) -> Result<Lowered, CompileError> {
+        lower_surface(p, &SurfaceRef::Surface(SurfaceId(id)))
+    }
+
+    #[test]
+    fn a_hand_built_cycle_is_an_error_not_a_stack_overflow() {
+        let p = Program {
+            surfaces: vec![
+                surface("a", e(ExprKind::Surface(SurfaceId(1)))),
+                surface("b", e(ExprKind::Surface(SurfaceId(0)))),
+            ],
+            functions: vec![FnDef {
+                name: "f".into(),
+                span: Span::default(),
+                params: vec!["t".into()],
+                body: e(ExprKind::Call(FnId(0), vec![e(ExprKind::Param(0))])),
+                uses_coordinates: false,
+            }],
+            ..Program::default()
+        };
+        assert!(matches!(lower(&p, 0), Err(CompileError::Cycle { name, .. }) if name == "a"));
+        let call = e(ExprKind::Call(FnId(0), vec![e(ExprKind::Coord(Axis::X))]));
+        let p2 = Program {
+            surfaces: vec![surface("s", call)],
+            ..p
+        };
+        assert!(matches!(lower(&p2, 0), Err(CompileError::Cycle { name, .. }) if name == "f"));
+    }
+
+    #[test]
+    fn misuse_is_reported_with_its_span() {
+        let p = Program {
+            surfaces: vec![surface("s", e(ExprKind::Param(0)))],
+            patches: vec![PatchDef {
+                name: "p".into(),
+                span: Span::default(),
+                params: ["u".into(), "v".into()],
+                u_range: (0.0, 1.0),
+                v_range: (0.0, 1.0),
+                body: [
+                    e(ExprKind::Param(0)),
+                    e(ExprKind::Coord(Axis::Z)),
+                    e(ExprKind::Param(1)),
+                ],
+            }],
+            ..Program::default()
+        };
+        assert!(matches!(
+            lower(&p, 0),
+            Err(CompileError::UnboundParam { index: 0, span }) if span == Span::new(3, 7)
+        ));
+        assert!(matches!(
+            lower_patch(&p, PatchId(0)),
+            Err(CompileError::CoordinatesInPatch { .. })
+        ));
+        assert!(matches!(
+            lower_surface(&p, &SurfaceRef::Patch(PatchId(0))),
+            Err(CompileError::PatchIsNotASurface { name }) if name == "p"
+        ));
+        assert!(matches!(
+            lower(&p, 9),
+            Err(CompileError::NoSuchSurface { .. })
+        ));
+    }
+
+    #[test]
+    fn too_deep_an_expression_is_an_error() {
+        let mut body = e(ExprKind::Coord(Axis::X));
+        for _ in 0..lower::MAX_DEPTH + 5 {
+            body = e(ExprKind::Binary(
+                BinaryOp::Add,
+                Box::new(body),
+                Box::new(e(ExprKind::Number(1.0))),
+            ));
+        }
+        let p = Program {
+            surfaces: vec![surface("deep", body)],
+            ..Program::default()
+        };
+        assert!(matches!(lower(&p, 0), Err(CompileError::TooDeep { .. })));
+    }
+
+    #[test]
+    fn a_constant_surface_compiles_to_an_empty_tape() {
+        let p = Program {
+            surfaces: vec![surface(
+                "c",
+                e(ExprKind::Binary(
+                    BinaryOp::Mul,
+                    Box::new(e(ExprKind::Number(2.0))),
+                    Box::new(e(ExprKind::Number(3.0))),
+                )),
+            )],
+            ..Program::default()
+        };
+        let l = lower(&p, 0).unwrap();
+        assert!(l.tape.instrs().is_empty());
+        assert_eq!(l.tape.constants(), &[6.0]);
+        let mut s = CompiledSurface::new(l.tape, vec![]).unwrap();
+        let vg = s.value_gradient(glam::DVec3::new(1.0, 2.0, 3.0));
+        assert_eq!((vg.value, vg.gradient), (6.0, glam::DVec3::ZERO));
+    }
+}

@@ -5,22 +5,24 @@
 //! The registers live in the [`Vm`] and are reused, so an evaluation allocates nothing. The
 //! batch path keeps the instruction dispatch outside the point loop: it runs each instruction
 //! over [`LANES`] points at a time (structure-of-arrays registers), which lets the compiler
-//! vectorise the arithmetic. `dist` instructions call the tape's child surfaces.
+//! vectorise the arithmetic (in an AVX2 copy where the CPU has it), and computes only the
+//! partials that can be non-zero (per-instruction masks). `dist` instructions call the tape's
+//! child surfaces. `docs/compiler.md` has the measurements behind these choices.
 
 pub mod ops;
 
 use glam::DVec3;
 
-use crate::compile::tape::{Op, Reg, Tape};
+use crate::compile::tape::{Arity, Op, Reg, Tape};
 use crate::surface::{Surface, ValueGrad};
 pub use ops::Grad;
 
-/// Points per batch block: 32 keeps a register (4 × 32 f64 with gradients) at 1 KiB, so the
-/// working set of a tape of a few dozen registers stays in the L1 cache.
-pub const LANES: usize = 32;
+/// Points per block of the gradient batch path. Measured on the genus-3 and blend benches
+/// (32 to 1024): long lane loops amortise each instruction's dispatch and its per-partial
+/// branches; at 256 a register is 8 KiB and a gallery tape's registers stay in L2.
+pub const LANES: usize = 256;
 
-/// Points per block of the value-only batch path: registers are 1 KiB here too, and longer
-/// lane loops amortise the dispatch of each instruction.
+/// Points per block of the value-only batch path (a register is 1 KiB).
 pub const VALUE_LANES: usize = 128;
 
 type Lanes = [f64; VALUE_LANES];
@@ -48,6 +50,33 @@ impl GradLanes {
             dx: [g.dx; LANES],
             dy: [g.dy; LANES],
             dz: [g.dz; LANES],
+        }
+    }
+
+    #[inline(always)]
+    fn partial(&self, k: usize) -> &[f64; LANES] {
+        match k {
+            0 => &self.dx,
+            1 => &self.dy,
+            _ => &self.dz,
+        }
+    }
+
+    #[inline(always)]
+    fn partial_mut(&mut self, k: usize) -> &mut [f64; LANES] {
+        match k {
+            0 => &mut self.dx,
+            1 => &mut self.dy,
+            _ => &mut self.dz,
+        }
+    }
+
+    /// Sets the partials whose bit is not in `mask` to 0.
+    fn zero_partials_outside(&mut self, mask: u8) {
+        for k in 0..3 {
+            if mask & (1 << k) == 0 {
+                self.partial_mut(k).fill(0.0);
+            }
         }
     }
 
@@ -80,6 +109,39 @@ pub struct Vm {
     grads: Vec<Grad>,
     lane_values: Vec<Lanes>,
     lane_grads: Vec<GradLanes>,
+    /// Whether the CPU has AVX2 (checked once): the block loops then run in a copy compiled
+    /// for it, twice as wide. Results are bit-identical (no fused multiply-add).
+    avx2: bool,
+    /// Per instruction: which partials (bit k: ∂/∂ input k) can be non-zero in its output and
+    /// its two operands. The gradient batch computes only those.
+    masks: Vec<[u8; 3]>,
+    /// The same for the first output register.
+    output_mask: u8,
+}
+
+/// Which partials of each instruction's output and operands can be non-zero: an input has its
+/// own, a constant none, `dist` all three, an operation the union of its operands'.
+fn partial_masks(tape: &Tape) -> (Vec<[u8; 3]>, u8) {
+    let mut reg = vec![0u8; tape.registers()];
+    for (i, m) in reg.iter_mut().enumerate().take(tape.inputs().min(3)) {
+        *m = 1 << i;
+    }
+    let mut masks = Vec::with_capacity(tape.instrs().len());
+    for ins in tape.instrs() {
+        let get = |r: Reg| reg.get(r.index()).copied().unwrap_or(0b111);
+        let (a, b) = match ins.op.arity() {
+            Arity::Child => (0, 0),
+            Arity::Unary => (get(ins.a), 0),
+            Arity::Binary => (get(ins.a), get(ins.b)),
+        };
+        let out = if ins.op == Op::Dist { 0b111 } else { a | b };
+        if let Some(m) = reg.get_mut(ins.out.index()) {
+            *m = out;
+        }
+        masks.push([out, a, b]);
+    }
+    let output = reg.get(tape.outputs()[0].index()).copied().unwrap_or(0b111);
+    (masks, output)
 }
 
 impl std::fmt::Debug for Vm {
@@ -170,6 +232,7 @@ macro_rules! per_opcode {
     };
 }
 
+#[inline(always)]
 fn value_lanes(op: Op, o: &mut Lanes, a: &Lanes, b: &Lanes) {
     macro_rules! run {
         ($k:expr) => {
@@ -181,6 +244,7 @@ fn value_lanes(op: Op, o: &mut Lanes, a: &Lanes, b: &Lanes) {
     per_opcode!(op, run)
 }
 
+#[inline(always)]
 fn grad_lanes(op: Op, o: &mut GradLanes, a: &GradLanes, b: &GradLanes) {
     macro_rules! run {
         ($k:expr) => {
@@ -201,6 +265,7 @@ impl Vm {
                 found: children.len(),
             });
         }
+        let (masks, output_mask) = partial_masks(&tape);
         let mut values = vec![0.0; tape.registers()];
         let mut grads = vec![Grad::default(); tape.registers()];
         for (i, &c) in tape.constants().iter().enumerate() {
@@ -214,6 +279,9 @@ impl Vm {
             grads,
             lane_values: Vec::new(),
             lane_grads: Vec::new(),
+            avx2: has_avx2(),
+            masks,
+            output_mask,
         })
     }
 
@@ -322,6 +390,7 @@ impl Vm {
                 tape,
                 children,
                 lane_values: regs,
+                avx2,
                 ..
             } = self;
             for (i, p) in pts.iter().enumerate() {
@@ -329,6 +398,193 @@ impl Vm {
                     regs[axis][i] = c;
                 }
             }
+            run_block(*avx2, Block::Values(regs), tape, &[], children, n);
+            outs[..n].copy_from_slice(&regs[output][..n]);
+        }
+    }
+
+    /// f and ∇f at each point of a surface tape, for i below the shorter length.
+    pub fn value_grad_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) {
+        self.init_lanes();
+        let output = self.tape.outputs()[0].index();
+        for (pts, outs) in points.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            let n = pts.len().min(outs.len());
+            let Vm {
+                tape,
+                children,
+                lane_grads: regs,
+                avx2,
+                masks,
+                ..
+            } = self;
+            match (tape.inputs(), &mut regs[..]) {
+                (3, [xs, ys, zs, ..]) => {
+                    let lanes = xs.v.iter_mut().zip(ys.v.iter_mut()).zip(zs.v.iter_mut());
+                    for (((x, y), z), p) in lanes.zip(pts) {
+                        (*x, *y, *z) = (p.x, p.y, p.z);
+                    }
+                }
+                _ => {
+                    for (i, p) in pts.iter().enumerate() {
+                        for (axis, c) in [p.x, p.y, p.z].into_iter().enumerate().take(tape.inputs())
+                        {
+                            regs[axis].v[i] = c;
+                        }
+                    }
+                }
+            }
+            run_block(*avx2, Block::Grads(regs), tape, masks, children, n);
+            let r = &mut regs[output];
+            r.zero_partials_outside(self.output_mask);
+            let lanes = r.v.iter().zip(&r.dx).zip(&r.dy).zip(&r.dz);
+            for (slot, (((&v, &dx), &dy), &dz)) in outs.iter_mut().zip(lanes) {
+                *slot = ValueGrad {
+                    value: v,
+                    gradient: DVec3::new(dx, dy, dz),
+                };
+            }
+        }
+    }
+}
+
+/// The opcodes with a sparse gradient rule in the batch evaluator: the arithmetic of
+/// polynomials, the bulk of every gallery surface.
+#[inline(always)]
+fn is_sparse(op: Op) -> bool {
+    matches!(
+        op,
+        Op::Add | Op::Sub | Op::Mul | Op::Div | Op::Neg | Op::Square
+    )
+}
+
+/// A sparse opcode over a block: the values, then each partial that can be non-zero (bit k
+/// of `mask[0]`), reading an operand's partial only where it can be non-zero. Partials
+/// outside the output's mask are left stale; readers treat them as 0. Agrees with `ops::grad`
+/// up to the sign of zero (a missing `+ 0`), since `ops::term` keeps zero partials zero.
+#[inline(always)]
+fn sparse_grad_lanes(op: Op, mask: [u8; 3], o: &mut GradLanes, a: &GradLanes, b: &GradLanes) {
+    use ops::term;
+    let (av, bv) = (&a.v, &b.v);
+    let GradLanes {
+        v: ov,
+        dx: odx,
+        dy: ody,
+        dz: odz,
+    } = o;
+    match op {
+        Op::Add => (0..LANES).for_each(|i| ov[i] = av[i] + bv[i]),
+        Op::Sub => (0..LANES).for_each(|i| ov[i] = av[i] - bv[i]),
+        Op::Mul => (0..LANES).for_each(|i| ov[i] = av[i] * bv[i]),
+        Op::Div => (0..LANES).for_each(|i| ov[i] = av[i] / bv[i]),
+        Op::Neg => (0..LANES).for_each(|i| ov[i] = -av[i]),
+        Op::Square => (0..LANES).for_each(|i| ov[i] = av[i] * av[i]),
+        _ => {}
+    }
+    let v: &[f64; LANES] = ov;
+    let binary = op.arity() == Arity::Binary;
+    for k in 0..3 {
+        let bit = 1u8 << k;
+        let (ha, hb) = (mask[1] & bit != 0, binary && mask[2] & bit != 0);
+        if !ha && !hb {
+            continue;
+        }
+        let (ad, bd) = (a.partial(k), b.partial(k));
+        let od: &mut [f64; LANES] = match k {
+            0 => &mut *odx,
+            1 => &mut *ody,
+            _ => &mut *odz,
+        };
+        match (op, ha, hb) {
+            (Op::Add, true, true) => (0..LANES).for_each(|i| od[i] = ad[i] + bd[i]),
+            (Op::Add, true, false) => *od = *ad,
+            (Op::Add, false, true) => *od = *bd,
+            (Op::Sub, true, true) => (0..LANES).for_each(|i| od[i] = ad[i] - bd[i]),
+            (Op::Sub, true, false) => *od = *ad,
+            (Op::Sub, false, true) => (0..LANES).for_each(|i| od[i] = -bd[i]),
+            (Op::Mul, true, true) => {
+                (0..LANES).for_each(|i| od[i] = term(bv[i], ad[i]) + term(av[i], bd[i]))
+            }
+            (Op::Mul, true, false) => (0..LANES).for_each(|i| od[i] = term(bv[i], ad[i])),
+            (Op::Mul, false, true) => (0..LANES).for_each(|i| od[i] = term(av[i], bd[i])),
+            (Op::Div, true, true) => (0..LANES).for_each(|i| {
+                let r = 1.0 / bv[i];
+                od[i] = term(r, ad[i]) + term(-v[i] * r, bd[i]);
+            }),
+            (Op::Div, true, false) => (0..LANES).for_each(|i| od[i] = term(1.0 / bv[i], ad[i])),
+            (Op::Div, false, true) => (0..LANES).for_each(|i| {
+                let r = 1.0 / bv[i];
+                od[i] = term(-v[i] * r, bd[i]);
+            }),
+            (Op::Neg, _, _) => (0..LANES).for_each(|i| od[i] = -ad[i]),
+            (Op::Square, _, _) => (0..LANES).for_each(|i| od[i] = term(2.0 * av[i], ad[i])),
+            _ => {}
+        }
+    }
+}
+
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// The registers of one block of points.
+enum Block<'r> {
+    Values(&'r mut [Lanes]),
+    Grads(&'r mut [GradLanes]),
+}
+
+/// Runs the tape over one block of points whose first `n` lanes are real (the others hold
+/// stale values; only `dist` looks at `n`, to call its child no more than needed).
+fn run_block(
+    avx2: bool,
+    regs: Block<'_>,
+    tape: &Tape,
+    masks: &[[u8; 3]],
+    children: &mut [Box<dyn Surface>],
+    n: usize,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: the CPU has AVX2 (`has_avx2`, checked when the Vm was built).
+        unsafe { run_block_avx2(regs, tape, masks, children, n) };
+        return;
+    }
+    let _ = avx2;
+    run_block_generic(regs, tape, masks, children, n);
+}
+
+/// `run_block_generic` compiled for AVX2.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn run_block_avx2(
+    regs: Block<'_>,
+    tape: &Tape,
+    masks: &[[u8; 3]],
+    children: &mut [Box<dyn Surface>],
+    n: usize,
+) {
+    run_block_generic(regs, tape, masks, children, n);
+}
+
+#[inline(always)]
+fn run_block_generic(
+    regs: Block<'_>,
+    tape: &Tape,
+    masks: &[[u8; 3]],
+    children: &mut [Box<dyn Surface>],
+    n: usize,
+) {
+    match regs {
+        Block::Values(regs) => {
             for ins in tape.instrs() {
                 let o = ins.out.index();
                 if ins.op == Op::Dist {
@@ -347,28 +603,9 @@ impl Vm {
                     value_lanes(ins.op, out, a, b);
                 }
             }
-            outs[..n].copy_from_slice(&regs[output][..n]);
         }
-    }
-
-    /// f and ∇f at each point of a surface tape, for i below the shorter length.
-    pub fn value_grad_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) {
-        self.init_lanes();
-        let output = self.tape.outputs()[0].index();
-        for (pts, outs) in points.chunks(LANES).zip(out.chunks_mut(LANES)) {
-            let n = pts.len().min(outs.len());
-            let Vm {
-                tape,
-                children,
-                lane_grads: regs,
-                ..
-            } = self;
-            for (i, p) in pts.iter().enumerate() {
-                for (axis, c) in [p.x, p.y, p.z].into_iter().enumerate().take(tape.inputs()) {
-                    regs[axis].v[i] = c;
-                }
-            }
-            for ins in tape.instrs() {
+        Block::Grads(regs) => {
+            for (ins, &mask) in tape.instrs().iter().zip(masks) {
                 let o = ins.out.index();
                 if ins.op == Op::Dist {
                     let (Some(child), Some((lo, hi))) = (
@@ -385,16 +622,23 @@ impl Vm {
                     }
                     continue;
                 }
-                if let Some((out, a, b)) = split3(regs, o, ins.a.index(), ins.b.index()) {
-                    grad_lanes(ins.op, out, a, b);
+                if !is_sparse(ins.op) {
+                    // The dense rule reads every partial: make the structurally zero ones 0.
+                    let binary = ins.op.arity() == Arity::Binary;
+                    let operands = [Some((ins.a, mask[1])), binary.then_some((ins.b, mask[2]))];
+                    for (r, m) in operands.into_iter().flatten() {
+                        if let Some(reg) = regs.get_mut(r.index()) {
+                            reg.zero_partials_outside(m);
+                        }
+                    }
                 }
-            }
-            let r = &regs[output];
-            for (i, slot) in outs.iter_mut().enumerate().take(n) {
-                *slot = ValueGrad {
-                    value: r.v[i],
-                    gradient: DVec3::new(r.dx[i], r.dy[i], r.dz[i]),
-                };
+                if let Some((out, a, b)) = split3(regs, o, ins.a.index(), ins.b.index()) {
+                    if is_sparse(ins.op) {
+                        sparse_grad_lanes(ins.op, mask, out, a, b);
+                    } else {
+                        grad_lanes(ins.op, out, a, b);
+                    }
+                }
             }
         }
     }

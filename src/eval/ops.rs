@@ -46,7 +46,7 @@ impl Grad {
     /// The chain rule: f(self) with value `v` and f'(self) = `k`.
     #[inline(always)]
     fn chain(self, v: f64, k: f64) -> Grad {
-        Grad::new(v, k * self.dx, k * self.dy, k * self.dz)
+        Grad::new(v, term(k, self.dx), term(k, self.dy), term(k, self.dz))
     }
 
     /// k·self' + m·other' with value `v`.
@@ -54,11 +54,20 @@ impl Grad {
     fn chain2(self, other: Grad, v: f64, k: f64, m: f64) -> Grad {
         Grad::new(
             v,
-            k * self.dx + m * other.dx,
-            k * self.dy + m * other.dy,
-            k * self.dz + m * other.dz,
+            term(k, self.dx) + term(m, other.dx),
+            term(k, self.dy) + term(m, other.dy),
+            term(k, self.dz) + term(m, other.dz),
         )
     }
+}
+
+/// k·d, where a zero derivative stays zero whatever k is: a partial that does not depend
+/// on an input must not turn NaN because a coefficient is infinite (x·y at x = ∞ has ∂/∂x =
+/// y, not NaN). It also makes the dense dual numbers agree with the batch evaluator, which
+/// skips partials that are structurally zero.
+#[inline(always)]
+pub fn term(k: f64, d: f64) -> f64 {
+    if d == 0.0 { 0.0 } else { k * d }
 }
 
 /// f64::min/max ignore NaN; ours propagate it.
@@ -186,12 +195,12 @@ pub fn grad(op: Op, a: Grad, b: Grad) -> Grad {
             // The ln(a) term only where the exponent varies: a constant exponent must not
             // turn the derivative of, say, (−2)^3 into NaN through ln(−2).
             let l = v * a.v.ln();
-            let term = |db: f64| if db == 0.0 { 0.0 } else { l * db };
+            let ln_term = |db: f64| term(l, db);
             Grad::new(
                 v,
-                k * a.dx + term(b.dx),
-                k * a.dy + term(b.dy),
-                k * a.dz + term(b.dz),
+                term(k, a.dx) + ln_term(b.dx),
+                term(k, a.dy) + ln_term(b.dy),
+                term(k, a.dz) + ln_term(b.dz),
             )
         }
         Op::Atan2 => {
