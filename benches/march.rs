@@ -1,13 +1,17 @@
-//! Marcher throughput (triangles per second) on the paper's sphere and genus-3 surface with
-//! native closures, and the share of the time spent evaluating the surface (printed once
-//! per case, measured with a timing wrapper around the surface).
+//! Marcher throughput (triangles per second) on the paper's sphere and genus-3 surface, with
+//! native closures and with the bytecode compiled from the gallery files (what `surfc mesh`
+//! runs), and the share of the time spent evaluating the surface (printed once per case,
+//! measured with a timing wrapper around the surface).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
+use surfc::compile::compile_surface;
 use surfc::march::{MarchInput, MarchSettings, march};
+use surfc::sema::program::{SurfaceId, SurfaceRef};
+use surfc::surface::compiled::CompiledSurface;
 use surfc::surface::{NativeSurface, Surface, ValueGrad};
 
 fn sphere() -> impl Surface {
@@ -100,6 +104,25 @@ fn case<S: Surface>(
     g.finish();
 }
 
+/// The surface `name` of a gallery file, compiled to bytecode (no `dist` in these files).
+fn compiled(source: &str, name: &str) -> impl Fn() -> CompiledSurface {
+    let (file, diags) = surfc::syntax::parse(source);
+    let file = file.unwrap_or_else(|| panic!("{diags:?}"));
+    let (program, _) = surfc::sema::check(&file);
+    let id = program
+        .surfaces
+        .iter()
+        .position(|s| s.name == name)
+        .expect("the surface is defined");
+    let r = SurfaceRef::Surface(SurfaceId(id as u32));
+    move || {
+        compile_surface(&program, &r, &mut |_| -> Result<Box<dyn Surface>, String> {
+            Err("no dist() in the benched surfaces".into())
+        })
+        .expect("the surface compiles")
+    }
+}
+
 fn benches(c: &mut Criterion) {
     let s = DVec3::new(1.0, 1.0, 1.0);
     case(c, "sphere_0.3", sphere, 0.3, s);
@@ -108,6 +131,10 @@ fn benches(c: &mut Criterion) {
     let g = DVec3::new(0.0, 3.0, 0.0);
     case(c, "genus3_0.3", genus3, 0.3, g);
     case(c, "genus3_0.05", genus3, 0.05, g);
+    let sphere_tape = compiled(include_str!("../examples/sphere.surf"), "sphere");
+    case(c, "sphere_0.01_bytecode", sphere_tape, 0.01, s);
+    let genus3_tape = compiled(include_str!("../examples/genus3.surf"), "genus3");
+    case(c, "genus3_0.05_bytecode", genus3_tape, 0.05, g);
 }
 
 criterion_group!(march_benches, benches);
