@@ -53,11 +53,12 @@ fn every_code_has_a_fixture() {
         let (_, diags) = diagnose(&std::fs::read(&path).expect("readable"));
         seen.extend(diags.iter().map(|d| d.code));
     }
-    // E0010 needs more than a screenful of errors, E0099 is a bug of ours.
+    // E0010 needs more than a screenful of errors, E0099 is a bug of ours; E0601 and E0602
+    // arise only when meshing (tests/mesh_cli.rs).
     let missing: Vec<&str> = CODES
         .iter()
         .map(|(c, _)| *c)
-        .filter(|c| !seen.contains(c) && !["E0010", "E0099"].contains(c))
+        .filter(|c| !seen.contains(c) && !["E0010", "E0099", "E0601", "E0602"].contains(c))
         .collect();
     assert!(missing.is_empty(), "codes without a fixture: {missing:?}");
 }

@@ -122,7 +122,12 @@ impl<'p> Builder<'p> {
                 center,
                 normal,
                 radius,
-            } => curve::circle(*center, *normal, *radius, step).map_err(fail)?,
+                segments,
+            } => match segments {
+                Some(n) => curve::circle_segments(*center, *normal, *radius, *n as usize),
+                None => curve::circle(*center, *normal, *radius, step),
+            }
+            .map_err(fail)?,
             CurveKind::Boundary(patch) => {
                 let mut patch = compile::compile_patch(self.program, *patch)?;
                 curve::boundary(&mut patch, step).map_err(fail)?

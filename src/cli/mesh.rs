@@ -13,7 +13,7 @@ use super::build::{BuildError, Builder};
 use super::load::{Loaded, load, stderr_color};
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE};
 use crate::diag::{self, Diagnostic, messages};
-use crate::march::{self, MarchInput, MarchSettings, Start};
+use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::quality::MeshReport;
 use crate::mesh::summary::{MeshSummary, Progress, format_summary};
 use crate::mesh::write::{Format, write_mesh_file};
@@ -243,7 +243,13 @@ fn mesh_block(
     def: &MeshDef,
 ) -> Result<Meshed, Diagnostic> {
     let started = Instant::now();
-    let build_failed = |e: BuildError| messages::mesh_build_failed(&def.name, def.span, &e);
+    let build_failed = |e: BuildError| {
+        let curve = match &e {
+            BuildError::Curve { curve, .. } => Some(program.curves[curve.index()].span),
+            BuildError::Compile(_) => None,
+        };
+        messages::mesh_build_failed(&def.name, def.span, &e, curve)
+    };
     let mut surface = builder
         .surface(&def.surface, def.step)
         .map_err(|e| build_failed(e.into()))?;
@@ -261,6 +267,7 @@ fn mesh_block(
                 &def.name,
                 def.span,
                 "it has neither `start` nor `front`",
+                None,
             ));
         }
     };
@@ -281,7 +288,7 @@ fn mesh_block(
         max_triangles: def.max_triangles,
     };
     let mesh = march::march(&mut surface, &input, &MarchSettings::default())
-        .map_err(|e| messages::mesh_failed(&def.name, def.span, &e.to_string()))?;
+        .map_err(|e| messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(&e)))?;
     let report = MeshReport::new(&mesh, &mut surface);
     Ok(Meshed {
         name: def.name.clone(),
@@ -291,6 +298,28 @@ fn mesh_block(
         mesh,
         report,
         seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// What the user may change when the marcher stops with `e`.
+fn march_help(e: &MarchError) -> Option<&'static str> {
+    Some(match e {
+        MarchError::TooManyTriangles { .. } => {
+            "raise `max_triangles`, or bound the mesh with a `box` or `bounds`: an unbounded surface, or a front or bound walked the wrong way (see `reverse`), never closes"
+        }
+        MarchError::Start { .. } | MarchError::StartOutsideBox { .. } => {
+            "move `start` nearer the surface (and inside the `box`)"
+        }
+        MarchError::NewPoint { .. } | MarchError::Stalled { .. } => {
+            "a smaller `step` may get past small features or a singular point; a `box` can keep the mesh away from it"
+        }
+        MarchError::PolygonTooShort { .. }
+        | MarchError::PolygonSpacing { .. }
+        | MarchError::PolygonOffSurface { .. }
+        | MarchError::PolygonGradient { .. } => {
+            "a front or bound must lie on the mesh's surface, its vertices about `step` apart"
+        }
+        _ => return None,
     })
 }
 

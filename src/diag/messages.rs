@@ -668,17 +668,26 @@ pub fn start_ignored(start: Span, front: Span) -> Diagnostic {
 }
 
 /// A mesh block whose triangulation could not be completed (the marcher's reason, with the
-/// coordinates where it happened).
-pub fn mesh_failed(name: &str, span: Span, reason: &str) -> Diagnostic {
+/// coordinates where it happened), with a help fitting the reason.
+pub fn mesh_failed(name: &str, span: Span, reason: &str, help: Option<&str>) -> Diagnostic {
     Diagnostic::error("E0601", format!("mesh `{name}` could not be completed"))
         .primary(span, "this mesh block")
         .note(reason.to_string())
-        .help("a start point nearer the surface, a smaller `step`, or a `box` around the part to mesh may help")
+        .maybe_help(help.map(str::to_string))
 }
 
 /// A mesh block whose surface or curves could not be built (a curve that cannot be traced,
-/// a surface that cannot be compiled).
-pub fn mesh_build_failed(name: &str, span: Span, reason: &dyn std::fmt::Display) -> Diagnostic {
-    Diagnostic::error("E0602", format!("mesh `{name}`: {reason}"))
-        .primary(span, "in this mesh block")
+/// a surface that cannot be compiled); `curve` is the definition of the curve at fault.
+pub fn mesh_build_failed(
+    name: &str,
+    span: Span,
+    reason: &dyn std::fmt::Display,
+    curve: Option<Span>,
+) -> Diagnostic {
+    let d = Diagnostic::error("E0602", format!("mesh `{name}`: {reason}"))
+        .primary(span, "in this mesh block");
+    match curve {
+        Some(c) => d.secondary(c, "the curve is defined here"),
+        None => d,
+    }
 }

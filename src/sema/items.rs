@@ -17,7 +17,18 @@ use super::{CURVE_CONSTRUCTORS, Checker, Kind};
 const MESH_OPTIONS: [&str; 6] = ["step", "start", "box", "front", "bounds", "max_triangles"];
 
 const INTERSECTION_SIG: &str = "intersection(S1, S2, near: (x, y, z))";
-const CIRCLE_SIG: &str = "circle(center: (x, y, z), normal: (x, y, z), radius: r)";
+const CIRCLE_SIG: &str = "circle(center: (x, y, z), normal: (x, y, z), radius: r[, segments: n])";
+
+/// The most segments a circle's `segments:` may ask for.
+const MAX_CIRCLE_SEGMENTS: f64 = 1_000_000.0;
+
+/// A curve constructor's arguments: positional ones, required named ones (in the order
+/// asked for), optional named ones (`None` where not given).
+type CurveArgs<'a> = (
+    Vec<&'a ast::Expr>,
+    Vec<&'a ast::Expr>,
+    Vec<Option<&'a ast::Expr>>,
+);
 const BOUNDARY_SIG: &str = "boundary(P)";
 const REVERSE_SIG: &str = "reverse(C)";
 
@@ -97,6 +108,7 @@ impl<'f> Checker<'f> {
                 center: DVec3::ZERO,
                 normal: DVec3::Z,
                 radius: 1.0,
+                segments: None,
             })
     }
 
@@ -141,10 +153,12 @@ impl<'f> Checker<'f> {
         call_span: Span,
         positional: usize,
         named: &[&str],
-    ) -> Option<(Vec<&'a ast::Expr>, Vec<&'a ast::Expr>)> {
+        optional: &[&str],
+    ) -> Option<CurveArgs<'a>> {
         let mut ok = true;
         let mut pos = Vec::new();
-        let mut found: Vec<Option<(&ast::Ident, &ast::Expr)>> = vec![None; named.len()];
+        let all: Vec<&str> = named.iter().chain(optional).copied().collect();
+        let mut found: Vec<Option<(&ast::Ident, &ast::Expr)>> = vec![None; all.len()];
         for a in args {
             match &a.name {
                 None => {
@@ -159,7 +173,7 @@ impl<'f> Checker<'f> {
                         ok = false;
                     }
                 }
-                Some(n) => match named.iter().position(|k| *k == n.name) {
+                Some(n) => match all.iter().position(|k| *k == n.name) {
                     Some(k) => {
                         if let Some((first, _)) = found[k] {
                             self.diags.push(messages::duplicate_named_argument(
@@ -194,7 +208,11 @@ impl<'f> Checker<'f> {
             ok = false;
         }
         let mut values = Vec::new();
-        for (k, f) in found.iter().enumerate() {
+        let optional_values = found[named.len()..]
+            .iter()
+            .map(|f| f.map(|(_, v)| v))
+            .collect();
+        for (k, f) in found[..named.len()].iter().enumerate() {
             match f {
                 Some((_, v)) => values.push(*v),
                 None => {
@@ -205,7 +223,7 @@ impl<'f> Checker<'f> {
                 }
             }
         }
-        ok.then_some((pos, values))
+        ok.then_some((pos, values, optional_values))
     }
 
     /// A curve constructor call → its kind. `owner` is the curve declaration, if any.
@@ -226,8 +244,15 @@ impl<'f> Checker<'f> {
         let span = e.span;
         match callee.name.as_str() {
             "intersection" => {
-                let (pos, named) =
-                    self.curve_args("intersection", INTERSECTION_SIG, args, span, 2, &["near"])?;
+                let (pos, named, _) = self.curve_args(
+                    "intersection",
+                    INTERSECTION_SIG,
+                    args,
+                    span,
+                    2,
+                    &["near"],
+                    &[],
+                )?;
                 let mut cx = Ctx::new(Place::Surface, &[], owner);
                 let first = self.lower_surface_ref(pos[0], &mut cx);
                 let second = self.lower_surface_ref(pos[1], &mut cx);
@@ -242,13 +267,14 @@ impl<'f> Checker<'f> {
                 })
             }
             "circle" => {
-                let (_, named) = self.curve_args(
+                let (_, named, optional) = self.curve_args(
                     "circle",
                     CIRCLE_SIG,
                     args,
                     span,
                     0,
                     &["center", "normal", "radius"],
+                    &["segments"],
                 )?;
                 let center = self.point(named[0], "the circle's center");
                 let normal = self.point(named[1], "the circle's normal");
@@ -271,14 +297,32 @@ impl<'f> Checker<'f> {
                         return None;
                     }
                 }
+                let segments = match optional[0] {
+                    None => None,
+                    Some(e) => {
+                        let n = self.number(e, "the circle's number of segments")?;
+                        if !(n >= 3.0 && n <= MAX_CIRCLE_SEGMENTS && n.fract() == 0.0) {
+                            self.diags.push(messages::bad_circle(
+                                e.span,
+                                &format!(
+                                    "`segments` must be a whole number from 3 to {MAX_CIRCLE_SEGMENTS}, it is {n}"
+                                ),
+                            ));
+                            return None;
+                        }
+                        Some(n as u32)
+                    }
+                };
                 Some(CurveKind::Circle {
                     center: center?,
                     normal: normal?,
                     radius: radius?,
+                    segments,
                 })
             }
             "boundary" => {
-                let (pos, _) = self.curve_args("boundary", BOUNDARY_SIG, args, span, 1, &[])?;
+                let (pos, _, _) =
+                    self.curve_args("boundary", BOUNDARY_SIG, args, span, 1, &[], &[])?;
                 let p = pos[0];
                 if let ast::ExprKind::Name(n) = &p.kind {
                     if let Some(&d) = self.globals.get(n.as_str()) {
@@ -308,7 +352,8 @@ impl<'f> Checker<'f> {
                 None
             }
             _ => {
-                let (pos, _) = self.curve_args("reverse", REVERSE_SIG, args, span, 1, &[])?;
+                let (pos, _, _) =
+                    self.curve_args("reverse", REVERSE_SIG, args, span, 1, &[], &[])?;
                 let c = self.curve_ref(pos[0], owner, &format!("{label}.reversed"))?;
                 Some(CurveKind::Reverse(c))
             }

@@ -364,6 +364,7 @@ impl<'f> Checker<'f> {
                             center: glam::DVec3::ZERO,
                             normal: glam::DVec3::Z,
                             radius: 1.0,
+                            segments: None,
                         },
                     })
                 })

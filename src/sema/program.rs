@@ -99,10 +99,13 @@ pub enum CurveKind {
         second: SurfaceRef,
         near: DVec3,
     },
+    /// A circle; `segments` (the `segments:` argument) fixes the number of polygon edges,
+    /// else the polygon is sampled at the step of the mesh that uses it.
     Circle {
         center: DVec3,
         normal: DVec3,
         radius: f64,
+        segments: Option<u32>,
     },
     /// The image of a patch's parameter-domain boundary.
     Boundary(PatchId),

@@ -49,7 +49,7 @@ pub enum CurveError {
     #[error("the patch domain u in {u:?}, v in {v:?} is empty or not finite")]
     BadDomain { u: (f64, f64), v: (f64, f64) },
     #[error(
-        "the surfaces do not meet near {near}: the best point found, {best}, is {residual:e} away from one of them"
+        "the surfaces do not meet near {near}: the best point found, {best}, is {residual:.3e} away from one of them"
     )]
     NoMeeting {
         near: DVec3,
@@ -499,11 +499,28 @@ fn min_norm_step(a: ValueGrad, b: ValueGrad, tangent_sine: f64) -> DVec3 {
 // ---------------------------------------------------------------------------------------------
 // Circles.
 
-/// The circle as a closed polygon of n = ⌈2πr/δ⌉ (at least 3) equal segments, vertex k at
-/// center + r(cos(2πk/n) t1 + sin(2πk/n) t2), (t1, t2) = `tangent_frame(normal/|normal|)`:
-/// counter-clockwise around `normal`, starting at center + r·t1.
+/// The circle as a closed polygon of n = ⌈2πr/δ⌉ (at least 3) equal segments: see
+/// `circle_segments`.
 pub fn circle(center: DVec3, normal: DVec3, radius: f64, step: f64) -> Result<Polygon, CurveError> {
     check_step(step)?;
+    let n = segment_count(
+        std::f64::consts::TAU * radius,
+        step,
+        3,
+        CurveTolerance::default().max_vertices,
+    )?;
+    circle_segments(center, normal, radius, n)
+}
+
+/// The circle as a closed polygon of n (at least 3) equal segments, vertex k at
+/// center + r(cos(2πk/n) t1 + sin(2πk/n) t2), (t1, t2) = `tangent_frame(normal/|normal|)`:
+/// counter-clockwise around `normal`, starting at center + r·t1.
+pub fn circle_segments(
+    center: DVec3,
+    normal: DVec3,
+    radius: f64,
+    n: usize,
+) -> Result<Polygon, CurveError> {
     let bad = CurveError::InvalidCircle {
         center,
         normal,
@@ -512,16 +529,17 @@ pub fn circle(center: DVec3, normal: DVec3, radius: f64, step: f64) -> Result<Po
     let Some(n_hat) = normal.try_normalize() else {
         return Err(bad);
     };
-    if !(center.is_finite() && radius.is_finite() && radius > 0.0) {
+    if !(center.is_finite() && radius.is_finite() && radius > 0.0) || n < 3 {
         return Err(bad);
     }
+    let max = CurveTolerance::default().max_vertices;
+    if n > max {
+        return Err(CurveError::TooManyVertices {
+            count: n as f64,
+            max,
+        });
+    }
     let (t1, t2) = tangent_frame(n_hat);
-    let n = segment_count(
-        std::f64::consts::TAU * radius,
-        step,
-        3,
-        CurveTolerance::default().max_vertices,
-    )?;
     let points = (0..n)
         .map(|k| {
             let (sin, cos) = (std::f64::consts::TAU * k as f64 / n as f64).sin_cos();

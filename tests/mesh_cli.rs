@@ -1,0 +1,144 @@
+//! `surfc mesh` through the binary: the JSON report, exit codes, diagnostics of meshes that
+//! cannot be completed (E0601) or whose curves cannot be built (E0602), atomic output (a
+//! failed run leaves an existing file as it was), and byte-for-byte determinism.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn surfc(args: &[&str], dir: &Path) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("surfc runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// A fresh scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("surfc-mesh-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    std::fs::write(dir.join(name), text).unwrap();
+    name.to_string()
+}
+
+const SPHERE: &str = "surface sphere = x^2 + y^2 + z^2 - 4;\n\
+                      mesh ball = sphere { step: 0.5; start: (1, 1, 1); }\n";
+
+#[test]
+fn json_report_and_default_output() {
+    let dir = scratch("json");
+    let file = write(&dir, "ball.surf", SPHERE);
+    let (code, stdout, _) = surfc(&["mesh", &file, "--json", "--quiet"], &dir);
+    assert_eq!(code, 0);
+    let json: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    let m = &json["meshes"][0];
+    for key in [
+        "name",
+        "surface",
+        "step",
+        "vertices",
+        "triangles",
+        "boundary_edges",
+        "boundary_loops",
+        "non_manifold_edges",
+        "euler_characteristic",
+        "components",
+        "min_angle_deg",
+        "max_vertex_error",
+        "seconds",
+    ] {
+        assert!(!m[key].is_null(), "missing {key} in {m}");
+    }
+    assert_eq!(m["name"], "ball");
+    assert_eq!(m["surface"], "sphere");
+    assert_eq!(m["euler_characteristic"], 2);
+    assert_eq!(m["boundary_edges"], 0);
+    assert!(m["max_vertex_error"].as_f64().unwrap() <= 1e-9 * 0.5);
+    assert!(json["seconds"].as_f64().unwrap() >= 0.0);
+    // Without -o the file is `<stem>.obj` in the current directory.
+    let obj = std::fs::read_to_string(dir.join("ball.obj")).expect("ball.obj written");
+    assert!(obj.contains("o ball"));
+}
+
+#[test]
+fn same_input_same_bytes_in_every_format() {
+    let dir = scratch("determinism");
+    let file = write(&dir, "ball.surf", SPHERE);
+    for ext in ["obj", "stl", "ply", "off", "glb"] {
+        let (a, b) = (format!("a.{ext}"), format!("b.{ext}"));
+        assert_eq!(surfc(&["mesh", &file, "-q", "-o", &a], &dir).0, 0);
+        assert_eq!(surfc(&["mesh", &file, "-q", "-o", &b], &dir).0, 0);
+        let (a, b) = (
+            std::fs::read(dir.join(a)).unwrap(),
+            std::fs::read(dir.join(b)).unwrap(),
+        );
+        assert!(!a.is_empty());
+        assert_eq!(a, b, "{ext} differs between two runs");
+    }
+}
+
+#[test]
+fn mesh_that_cannot_be_completed_is_e0601_and_leaves_the_output_alone() {
+    let dir = scratch("e0601");
+    let file = write(
+        &dir,
+        "small.surf",
+        "surface sphere = x^2 + y^2 + z^2 - 4;\n\
+         mesh ball = sphere { step: 0.3; start: (1, 1, 1); max_triangles: 10; }\n",
+    );
+    std::fs::write(dir.join("small.obj"), "precious").unwrap();
+    let (code, stdout, stderr) = surfc(&["mesh", &file, "--color", "never"], &dir);
+    assert_eq!(code, 1);
+    assert!(stdout.is_empty());
+    assert_eq!(
+        std::fs::read_to_string(dir.join("small.obj")).unwrap(),
+        "precious"
+    );
+    insta::assert_snapshot!(stderr);
+}
+
+#[test]
+fn curve_that_cannot_be_traced_is_e0602() {
+    let dir = scratch("e0602");
+    let file = write(
+        &dir,
+        "apart.surf",
+        "surface sphere = x^2 + y^2 + z^2 - 4;\n\
+         curve none = intersection(sphere, z - 5, near: (0, 0, 5));\n\
+         mesh cap = sphere { step: 0.3; front: none; }\n",
+    );
+    let (code, _, stderr) = surfc(&["mesh", &file, "--color", "never"], &dir);
+    assert_eq!(code, 1);
+    assert!(!dir.join("apart.obj").exists());
+    insta::assert_snapshot!(stderr);
+}
+
+#[test]
+fn usage_and_io_errors_exit_2_naming_the_path() {
+    let dir = scratch("usage");
+    let file = write(&dir, "ball.surf", SPHERE);
+    let (code, _, stderr) = surfc(&["mesh", &file, "--only", "bal"], &dir);
+    assert_eq!(code, 2);
+    assert!(
+        stderr.contains("no mesh block `bal`") && stderr.contains("ball"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = surfc(&["mesh", &file, "-o", "missing/dir/out.obj"], &dir);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("missing/dir"), "{stderr}");
+    let (code, _, stderr) = surfc(&["mesh", &file, "-o", "out.xyz"], &dir);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("out.xyz"), "{stderr}");
+    let (code, _, _) = surfc(&["mesh", "nowhere.surf"], &dir);
+    assert_eq!(code, 2);
+}
