@@ -892,6 +892,22 @@ impl Marcher<'_> {
         {
             return false;
         }
+        // Moving the triangles' corner from `gone` to `keep` must not flip any of them.
+        let pk = self.pos[keep.index()];
+        let flips = tris.iter().filter(|t| t.contains(&gone.0)).any(|t| {
+            let [a, b, c] = t.map(|v| {
+                if v == gone.0 {
+                    pk
+                } else {
+                    self.pos[v as usize]
+                }
+            });
+            let n = t.iter().map(|&v| self.normal[v as usize]).sum::<DVec3>();
+            (b - a).cross(c - a).dot(n) <= 0.0
+        });
+        if flips {
+            return false;
+        }
         if self.trace {
             eprintln!(
                 "march: collapse point {} into {} at {} (front angle {:.4})",
