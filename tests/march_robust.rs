@@ -221,3 +221,67 @@ fn failures_say_why_and_where() {
     ));
     let _ = Start::Point(DVec3::ZERO);
 }
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        // A fixed seed: the same cases on every run (and no regression files written).
+        #![proptest_config(ProptestConfig {
+            cases: 24,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(0x5eed_4a27),
+            failure_persistence: None,
+            ..ProptestConfig::default()
+        })]
+
+        /// Ellipsoids of random axes, meshed from random start directions at steps of a tenth
+        /// to a twentieth of the smallest axis: always watertight with Euler 2.
+        #[test]
+        fn ellipsoids_are_watertight(
+            a in 0.5f64..2.0, b in 0.5f64..2.0, c in 0.5f64..2.0,
+            dir in (-1.0f64..1.0, -1.0f64..1.0, 0.1f64..1.0),
+            div in 10.0f64..20.0,
+        ) {
+            let axes = DVec3::new(a, b, c);
+            let inv2 = 1.0 / (axes * axes);
+            let mut s: Boxed = Box::new(NativeSurface(move |p: DVec3| {
+                vg((p * p * inv2).element_sum() - 1.0, 2.0 * p * inv2)
+            }));
+            let step = a.min(b).min(c) / div;
+            let start = DVec3::new(dir.0, dir.1, dir.2) * axes;
+            mesh_and_check(
+                &format!("ellipsoid {axes} δ={step:.3}"),
+                &mut s,
+                &MarchInput::from_point(step, start),
+                closed(2),
+            );
+        }
+
+        /// Tori of random radii, rotations and steps (split and union happen on every one):
+        /// always watertight with Euler 0. The angle bound is 10° here, not 15°: on some
+        /// random tori a new point lands ≈ 0.25 δ from the second neighbour of its front
+        /// point (outside the distance checks, which skip second neighbours) and the next
+        /// completion joins them: 12.9–14° (docs/marcher.md, known limits).
+        #[test]
+        fn tori_are_watertight(
+            r in 1.0f64..2.0, ratio in 0.2f64..0.5,
+            rx in -3.0f64..3.0, ry in -3.0f64..3.0,
+            div in 3.0f64..8.0,
+        ) {
+            let a = r * ratio;
+            let rot = DMat3::from_rotation_y(ry) * DMat3::from_rotation_x(rx);
+            let mut s = transformed(torus(r, a), rot, 1.0);
+            let start = rot * DVec3::new(r, 0.0, a * 0.9);
+            mesh_and_check(
+                &format!("torus r={r:.2} a={a:.2} δ={:.3}", a / div),
+                &mut s,
+                &MarchInput::from_point(a / div, start),
+                Expect {
+                    min_angle_deg: 10.0,
+                    ..closed(0)
+                },
+            );
+        }
+    }
+}

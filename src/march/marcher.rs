@@ -54,6 +54,9 @@ pub(super) fn run(
         t2: Vec::new(),
         border: Vec::new(),
         triangles: Vec::new(),
+        first_tri: Vec::new(),
+        fixed_points: 0,
+        merged: 0,
         rings: Rings::default(),
         angle: Vec::new(),
         version: Vec::new(),
@@ -77,22 +80,22 @@ pub(super) fn run(
             f
         }
     };
+    if let Start::Front(_) = input.start {
+        m.fixed_points = m.pos.len() as u32;
+    }
     if let Start::Point(_) = input.start {
         let mut seen = BTreeMap::new();
         for (i, b) in input.bounds.iter().enumerate() {
             let g = m.polygon(b, PolygonRole::Bound(i), &mut seen)?;
             m.passive.push(g);
         }
+        m.fixed_points = m.pos.len() as u32;
     }
     // Bounds were pushed in input order; the first given is tried first when the actual
     // front is done.
     m.passive.reverse();
     m.march(actual)?;
-    Ok(Mesh {
-        vertices: m.pos,
-        normals: m.normal,
-        triangles: m.triangles,
-    })
+    Ok(m.into_mesh())
 }
 
 struct Marcher<'s> {
@@ -110,6 +113,12 @@ struct Marcher<'s> {
     /// The paper's border_point: on the box, never completed nor distance-checked.
     border: Vec<bool>,
     triangles: Vec<[u32; 3]>,
+    /// Per point: index of the first triangle that uses it (u32::MAX: none yet).
+    first_tri: Vec<u32>,
+    /// Points below this id are polygon vertices: never moved or merged away.
+    fixed_points: u32,
+    /// Points merged into others (`collapse`); dropped from the mesh at the end.
+    merged: usize,
     rings: Rings,
     // Per node.
     angle: Vec<f64>,
@@ -139,11 +148,17 @@ impl Marcher<'_> {
         self.t1.push(sp.t1);
         self.t2.push(sp.t2);
         self.border.push(border);
+        self.first_tri.push(u32::MAX);
         id
     }
 
     fn add_triangle(&mut self, a: PointId, b: PointId, c: PointId) {
         if a != b && b != c && a != c {
+            let t = self.triangles.len() as u32;
+            for p in [a, b, c] {
+                let f = &mut self.first_tri[p.index()];
+                *f = (*f).min(t);
+            }
             self.triangles.push([a.0, b.0, c.0]);
         }
     }
@@ -790,6 +805,12 @@ impl Marcher<'_> {
             self.pos[p2_id.index()],
         );
         let omega = self.angle[m.index()];
+        if omega < self.s.collapse_angle
+            && self.rings.len(self.rings.front(m)) > 4
+            && self.collapse(m, v1, v2)
+        {
+            return Ok(());
+        }
         let nt = if self.rings.len(self.rings.front(m)) <= 3 {
             1
         } else {
@@ -841,6 +862,124 @@ impl Marcher<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Step 3 for a needle: m's front angle is tiny and its neighbours v1, v2 lie within
+    /// `close_neighbour`·δ of each other, so the triangle (v1, v2, m) would be a sliver.
+    /// Instead the newer of the two points is merged into the older (an edge collapse):
+    /// its triangles take the older point, and m and its node leave the front. False
+    /// (nothing done) where that is not safe: border or polygon points, a point with
+    /// several nodes, or an existing edge between the two.
+    fn collapse(&mut self, m: NodeId, v1: NodeId, v2: NodeId) -> bool {
+        let (p1, p2) = (self.rings.point(v1), self.rings.point(v2));
+        if p1 == p2
+            || self.border[p1.index()]
+            || self.border[p2.index()]
+            || self.pos[p1.index()].distance(self.pos[p2.index()])
+                > self.s.close_neighbour * self.step
+        {
+            return false;
+        }
+        let (keep, gone, gone_node) = if p1 < p2 { (p1, p2, v2) } else { (p2, p1, v1) };
+        if gone.0 < self.fixed_points || !self.checkable[gone_node.index()] {
+            return false;
+        }
+        let from = self.first_tri[gone.index()] as usize;
+        let tris = &self.triangles[from.min(self.triangles.len())..];
+        if tris
+            .iter()
+            .any(|t| t.contains(&gone.0) && t.contains(&keep.0))
+        {
+            return false;
+        }
+        // Moving the triangles' corner from `gone` to `keep` must not flip any of them.
+        let pk = self.pos[keep.index()];
+        let flips = tris.iter().filter(|t| t.contains(&gone.0)).any(|t| {
+            let [a, b, c] = t.map(|v| {
+                if v == gone.0 {
+                    pk
+                } else {
+                    self.pos[v as usize]
+                }
+            });
+            let n = t.iter().map(|&v| self.normal[v as usize]).sum::<DVec3>();
+            (b - a).cross(c - a).dot(n) <= 0.0
+        });
+        if flips {
+            return false;
+        }
+        if self.trace {
+            eprintln!(
+                "march: collapse point {} into {} at {} (front angle {:.4})",
+                gone.0,
+                keep.0,
+                self.pos[keep.index()],
+                self.angle[m.index()]
+            );
+        }
+        for t in &mut self.triangles[from..] {
+            for v in t.iter_mut() {
+                if *v == gone.0 {
+                    *v = keep.0;
+                }
+            }
+        }
+        let fk = self.first_tri[keep.index()].min(from as u32);
+        self.first_tri[keep.index()] = fk;
+        self.merged += 1;
+        self.uncheck(m);
+        self.rings.replace(m, &[]);
+        self.uncheck(gone_node);
+        self.rings.replace(gone_node, &[]);
+        let kept = if gone_node == v1 { v2 } else { v1 };
+        for n in [self.rings.prev(kept), kept, self.rings.next(kept)] {
+            self.update_angle(n);
+            if self.checkable[n.index()] {
+                self.mark_pending(n);
+            }
+        }
+        true
+    }
+
+    /// The mesh, without the points merged away by `collapse` (renumbered in order, so
+    /// polygon vertices keep their places at the front).
+    fn into_mesh(self) -> Mesh {
+        if self.merged == 0 {
+            return Mesh {
+                vertices: self.pos,
+                normals: self.normal,
+                triangles: self.triangles,
+            };
+        }
+        let mut used = vec![false; self.pos.len()];
+        for t in &self.triangles {
+            for &v in t {
+                used[v as usize] = true;
+            }
+        }
+        // Polygon vertices stay even if a bound was never reached.
+        for u in used.iter_mut().take(self.fixed_points as usize) {
+            *u = true;
+        }
+        let mut map = vec![u32::MAX; self.pos.len()];
+        let (mut vertices, mut normals) = (Vec::new(), Vec::new());
+        for (i, &u) in used.iter().enumerate() {
+            if u {
+                map[i] = vertices.len() as u32;
+                vertices.push(self.pos[i]);
+                normals.push(self.normal[i]);
+            }
+        }
+        let triangles = self
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| map[v as usize]))
+            .collect();
+        Mesh {
+            vertices,
+            normals,
+            triangles,
+        }
     }
 
     /// After a completion, two consecutive nodes of the same point (possible next to the

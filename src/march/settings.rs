@@ -30,6 +30,10 @@ pub struct MarchSettings {
     pub close_angle: f64,
     /// Step 3: see `close_angle`. Default 0.5 (paper).
     pub close_neighbour: f64,
+    /// Step 3: a point whose front angle is below this, with neighbours closer than
+    /// `close_neighbour`·δ to each other, is not completed with a sliver; the newer
+    /// neighbour is merged into the older instead. Default 0.35 rad (20°).
+    pub collapse_angle: f64,
     /// Box: a new point closer than `box_snap · δ` to a face of the box is moved onto the
     /// face (a border point), so that no edge between it and the border shrinks to a sliver.
     /// Default 0.3.
@@ -59,6 +63,7 @@ impl Default for MarchSettings {
             split_gap: 1.2,
             close_angle: 3.0,
             close_neighbour: 0.5,
+            collapse_angle: 0.35,
             box_snap: 0.3,
             max_triangles: 10_000_000,
             polygon_edge_min: 0.25,
