@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use glam::DVec3;
 
 use super::{ColorMode, EXIT_INPUT};
-use crate::compile::{self, CompileError};
+use crate::compile::CompileError;
 use crate::sema::program::{Program, SurfaceId, SurfaceRef};
 use crate::surface::Surface;
 
@@ -22,12 +22,6 @@ pub struct EvalArgs {
     #[arg(long)]
     pub json: bool,
 }
-
-/// `dist()` targets need the foot-point surfaces of `surface::dist`; until that stage is wired
-/// in, a surface that uses `dist` cannot be evaluated from the command line.
-#[derive(Debug, thiserror::Error)]
-#[error("dist() of another surface is not available in this build")]
-pub(crate) struct DistUnavailable;
 
 /// The id of the surface called `name`, or a message listing the known surfaces and
 /// `EXIT_INPUT`.
@@ -61,22 +55,27 @@ pub fn run(args: EvalArgs, color: ColorMode) -> u8 {
         Ok(id) => id,
         Err(code) => return code,
     };
-    let mut factory =
-        |_: &SurfaceRef| -> Result<Box<dyn Surface>, DistUnavailable> { Err(DistUnavailable) };
-    let mut surface =
-        match compile::compile_surface(&loaded.program, &SurfaceRef::Surface(id), &mut factory) {
-            Ok(s) => s,
-            Err(e) => return report_compile_error(&e),
-        };
+    // dist() children measure their tolerances against a unit length: eval has no step.
+    let builder = super::build::Builder::new(&loaded.program);
+    let mut surface = match builder.surface(&SurfaceRef::Surface(id), 1.0) {
+        Ok(s) => s,
+        Err(e) => return report_compile_error(&e),
+    };
     let p = DVec3::new(args.x, args.y, args.z);
     let vg = surface.value_gradient(p);
     let g = vg.gradient;
     if args.json {
-        let out = serde_json::json!({
-            "value": vg.value,
-            "gradient": [g.x, g.y, g.z],
-        });
-        println!("{out}");
+        // A struct keeps the keys in the documented order; NaN and infinities print as null.
+        #[derive(serde::Serialize)]
+        struct Json {
+            value: f64,
+            gradient: [f64; 3],
+        }
+        let out = Json {
+            value: vg.value,
+            gradient: [g.x, g.y, g.z],
+        };
+        println!("{}", serde_json::to_string(&out).unwrap_or_default());
     } else {
         println!(
             "{}({}, {}, {}) = {}, gradient ({}, {}, {})",

@@ -61,6 +61,13 @@ pub struct MeshArgs {
     pub quiet: bool,
 }
 
+/// The `--json` report (DESIGN.md §3); structs keep the keys in the documented order.
+#[derive(Serialize)]
+struct Json<'a> {
+    meshes: Vec<MeshJson<'a>>,
+    seconds: f64,
+}
+
 /// One mesh of the `--json` report (DESIGN.md §3).
 #[derive(Serialize)]
 struct MeshJson<'a> {
@@ -134,11 +141,11 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
                 seconds: m.seconds,
             })
             .collect();
-        let json = serde_json::json!({
-            "meshes": meshes,
-            "seconds": started.elapsed().as_secs_f64(),
-        });
-        println!("{json}");
+        let json = Json {
+            meshes,
+            seconds: started.elapsed().as_secs_f64(),
+        };
+        println!("{}", serde_json::to_string(&json).unwrap_or_default());
     }
     if !args.quiet {
         let rows: Vec<MeshSummary> = meshed
