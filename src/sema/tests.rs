@@ -63,10 +63,12 @@ fn design_example_lowers() {
     assert_eq!(p.constants[0].value, 1.3);
     assert_eq!(p.surfaces.len(), 3);
     assert_eq!(p.patches.len(), 1);
-    assert_eq!(p.patches[0].u_range, (0.0, 1.0));
-    assert_eq!(p.patches[0].v_range, (0.0, 0.8));
-    assert_eq!(p.patches[0].params, ["u".to_string(), "v".to_string()]);
-    assert_eq!(show(&p.patches[0].body[0]), "(- (* 10 p1) 5)");
+    // The roof declares its parameters as (v, u), so that Pv × Pu faces up: `u_range` and
+    // `params[0]` are those of the first declared parameter, v.
+    assert_eq!(p.patches[0].u_range, (0.0, 0.8));
+    assert_eq!(p.patches[0].v_range, (0.0, 1.0));
+    assert_eq!(p.patches[0].params, ["v".to_string(), "u".to_string()]);
+    assert_eq!(show(&p.patches[0].body[0]), "(- (* 10 p0) 5)");
     // fillet = blend(cylinder, roof, c1, c2, mu) with c1, c2, mu constants 1..3 (ids 1, 2, 3).
     assert_eq!(
         show(&p.surfaces[1].body),
