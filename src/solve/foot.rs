@@ -188,10 +188,80 @@ pub fn foot_point_hinted(
     curvature: Option<Curvature>,
     tol: &FootTolerance,
 ) -> Result<Foot, FootError> {
-    let mut shape = curvature;
     if !x.is_finite() {
         return Err(FootError::NotFinite { x });
     }
+    let first = local_foot(surface, x, start, curvature, tol)?;
+    Ok(global_foot(surface, x, first, tol))
+}
+
+/// The global phase: `first` is a local foot point at distance |d|. Along each of the
+/// [`RAY_DIRECTIONS`] not within `global_skip_cos` of the direction to `first.point`, f is
+/// sampled at x + `global_margin`·|d|·u; a sign opposite to f(x) proves that the surface
+/// crosses that ray inside the sampled radius, so a local search starts there, and the nearest
+/// foot wins (ties: the earlier, so the result is deterministic). The rays depend only on x
+/// and the first distance, and every sheet crossing a ray within the margin is searched, so a
+/// warm and a cold start end in the same foot point wherever the rays resolve the sheets.
+fn global_foot(surface: &mut dyn Surface, x: DVec3, first: Foot, tol: &FootTolerance) -> Foot {
+    let d = first.distance.abs();
+    if tol.global_margin <= 0.0 || d == 0.0 {
+        return first;
+    }
+    let fx = surface.value_gradient(x).value;
+    if !fx.is_finite() || fx == 0.0 {
+        return first;
+    }
+    let towards = (first.point - x) / d;
+    let radius = tol.global_margin * d;
+    let mut best = first;
+    for &(i, j, k) in RAY_DIRECTIONS.iter() {
+        let u = DVec3::new(i, j, k).normalize();
+        if u.dot(towards) > tol.global_skip_cos {
+            continue;
+        }
+        let y = x + radius * u;
+        let fy = surface.value_gradient(y).value;
+        if !fy.is_finite() || fy.signum() == fx.signum() {
+            continue;
+        }
+        if let Ok(f) = local_foot(surface, x, Some(y), None, tol)
+            && f.distance.abs() < best.distance.abs()
+        {
+            best = f;
+        }
+    }
+    best
+}
+
+/// The 26 directions from the centre of a 3 × 3 × 3 cube to its other cells (unnormalised),
+/// in a fixed order: no direction is more than ≈ 23° from one of them.
+const RAY_DIRECTIONS: [(f64, f64, f64); 26] = {
+    let mut dirs = [(0.0, 0.0, 0.0); 26];
+    let mut n = 0;
+    let mut c = 0;
+    while c < 27 {
+        if c != 13 {
+            dirs[n] = (
+                (c / 9) as f64 - 1.0,
+                ((c / 3) % 3) as f64 - 1.0,
+                (c % 3) as f64 - 1.0,
+            );
+            n += 1;
+        }
+        c += 1;
+    }
+    dirs
+};
+
+/// One local foot-point search (the iteration of the module docs) from surfacepoint(`start`).
+fn local_foot(
+    surface: &mut dyn Surface,
+    x: DVec3,
+    start: Option<DVec3>,
+    curvature: Option<Curvature>,
+    tol: &FootTolerance,
+) -> Result<Foot, FootError> {
+    let mut shape = curvature;
     let scale = tol.scale;
     let project = |surface: &mut dyn Surface, p: DVec3, iteration: u32| {
         surface_point(surface, p, scale, &tol.surface_point)
