@@ -7,6 +7,9 @@
 //!   coordinates, (I + d·W) w = P_T(x − q), W the Weingarten map estimated by central
 //!   differences of ∇f; the plain tangent-plane projection (w = P_T(x − q)) converges only
 //!   for |d·κ| < 1 and oscillates beyond (outside a thin torus tube, say).
+//!   A global phase follows ([`foot_point_hinted`]): f sampled along 26 fixed rays from x at
+//!   1.25 times the distance found; a sign change starts another local search there, and the
+//!   nearest foot wins, so the answer does not depend on which sheet the start fell towards.
 //! - Parametric patch ([`patch_foot`]): Newton on (u, v) for ½|P(u, v) − x|², second
 //!   derivatives by central differences, seeded by a coarse grid pre-search over the extended
 //!   declared domain, a warm start running first (see [`patch_foot`]).
@@ -40,7 +43,8 @@ const OFF_CENTRE_DIRECTION: DVec3 = DVec3::new(0.6, 0.48, 0.64);
 /// A foot point on an implicit surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Foot {
-    /// q: the surface point nearest to x (locally; see the module docs).
+    /// q: the surface point nearest to x (among the sheets the global phase sees; see the
+    /// module docs).
     pub point: DVec3,
     /// ∇f/|∇f| at q.
     pub normal: DVec3,
@@ -181,6 +185,9 @@ pub fn foot_point(
 /// `foot_point` with a curvature estimate from an earlier search (a warm start's), reused
 /// while the iterate stays within `curvature_reuse · scale` of where it was measured. The
 /// estimate only sets the speed of convergence, never the foot point.
+///
+/// The local search from `start` is followed by the global phase (see `global_foot`), which
+/// makes the answer independent of the start wherever its rays resolve the sheets.
 pub fn foot_point_hinted(
     surface: &mut dyn Surface,
     x: DVec3,
