@@ -214,7 +214,7 @@ fn global_foot(surface: &mut dyn Surface, x: DVec3, first: Foot, tol: &FootToler
     if tol.global_margin <= 0.0 || d == 0.0 {
         return first;
     }
-    let fx = surface.value_gradient(x).value;
+    let fx = surface.value(x);
     if !fx.is_finite() || fx == 0.0 {
         return first;
     }
@@ -227,7 +227,7 @@ fn global_foot(surface: &mut dyn Surface, x: DVec3, first: Foot, tol: &FootToler
             continue;
         }
         let y = x + radius * u;
-        let fy = surface.value_gradient(y).value;
+        let fy = surface.value(y);
         if !fy.is_finite() || fy.signum() == fx.signum() {
             continue;
         }
@@ -241,7 +241,7 @@ fn global_foot(surface: &mut dyn Surface, x: DVec3, first: Foot, tol: &FootToler
 }
 
 /// The 26 directions from the centre of a 3 × 3 × 3 cube to its other cells (unnormalised),
-/// in a fixed order: no direction is more than ≈ 23° from one of them.
+/// in a fixed order: no direction is more than ≈ 28° from one of them.
 const RAY_DIRECTIONS: [(f64, f64, f64); 26] = {
     let mut dirs = [(0.0, 0.0, 0.0); 26];
     let mut n = 0;

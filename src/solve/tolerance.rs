@@ -73,7 +73,7 @@ pub struct FootTolerance {
     /// f is sampled along 26 fixed rays from x at radius `global_margin * |d|`, and a sign
     /// change starts another local search there (a nearer sheet crosses that ray).
     /// Dimensionless; 0 disables the phase. Default 1.25: a flat sheet nearer than the found
-    /// one is crossed by a ray within 37° of its normal, and every direction is within ≈ 23°
+    /// one is crossed by a ray within 37° of its normal, and every direction is within ≈ 28°
     /// of one of the rays.
     pub global_margin: f64,
     /// Rays within this cosine of the direction from x to the found foot point are not sampled:
