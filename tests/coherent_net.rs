@@ -160,3 +160,61 @@ fn g2_set_is_one_net() {
     let euler = vertices.len() as i64 - all.len() as i64 + triangles as i64;
     assert_eq!(euler, 1);
 }
+
+/// The sphere with six holes (Sect. 3.8): its six boundary loops are exactly the six circles'
+/// polygons (sampled with `segments: 60`, projected onto the sphere), vertex for vertex, to the
+/// bit.
+#[test]
+fn six_holes_keep_their_circles_exactly() {
+    use glam::DVec3;
+    use surfc::mesh::topology::topology;
+    use surfc::solve::curve::{circle_segments, project_onto};
+    use surfc::solve::tolerance::SurfacePointTolerance;
+    use surfc::surface::{NativeSurface, ValueGrad};
+
+    let source = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sphere_six_holes.surf"),
+    )
+    .unwrap();
+    let meshed = surfc::cli::mesh::mesh_source(&source).expect("meshes");
+    let m = &meshed[0];
+    let loops = topology(&m.mesh).boundary_loops;
+    assert_eq!(loops.len(), 6);
+    let key = |v: DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+    let found: BTreeSet<Vec<Key>> = loops
+        .iter()
+        .map(|l| {
+            let mut k: Vec<Key> = l
+                .iter()
+                .map(|&i| key(m.mesh.vertices[i as usize]))
+                .collect();
+            k.sort();
+            k
+        })
+        .collect();
+    // The circles of the file, projected with surfacepoint onto x² + y² + z² − 4, as the
+    // command does (the compiled sphere and this closure agree to the last bit on this
+    // formula: both compute x·x + y·y + z·z − 4 and 2x, 2y, 2z).
+    let mut sphere = NativeSurface(|p: DVec3| ValueGrad {
+        value: p.x * p.x + p.y * p.y + p.z * p.z - 4.0,
+        gradient: 2.0 * p,
+    });
+    let (a, rho) = (1.6f64, (4.0f64 - 1.6 * 1.6).sqrt());
+    let mut expected = BTreeSet::new();
+    for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
+        for sign in [1.0, -1.0] {
+            let circle = circle_segments(sign * a * axis, -sign * axis, rho, 60).unwrap();
+            let on = project_onto(
+                &mut sphere,
+                &circle,
+                m.step,
+                &SurfacePointTolerance::default(),
+            )
+            .unwrap();
+            let mut k: Vec<Key> = on.points.iter().map(|&v| key(v)).collect();
+            k.sort();
+            expected.insert(k);
+        }
+    }
+    assert_eq!(found, expected);
+}
