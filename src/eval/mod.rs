@@ -384,8 +384,17 @@ impl Vm {
     pub fn value_batch(&mut self, points: &[DVec3], out: &mut [f64]) {
         self.init_lanes();
         let output = self.tape.outputs()[0].index();
-        for (pts, outs) in points.chunks(VALUE_LANES).zip(out.chunks_mut(VALUE_LANES)) {
+        let (points_addr, out_addr, out_len) = (points.as_ptr(), out.as_ptr(), out.len());
+        let blocks = points.chunks(VALUE_LANES).zip(out.chunks_mut(VALUE_LANES));
+        for (block, (pts, outs)) in blocks.enumerate() {
             let n = pts.len().min(outs.len());
+            let mut hints = Prefetch::new(
+                (points_addr, points.len()),
+                (out_addr, out_len),
+                (block + 1) * VALUE_LANES,
+                VALUE_LANES,
+                self.tape.instrs().len(),
+            );
             let Vm {
                 tape,
                 children,
@@ -398,7 +407,16 @@ impl Vm {
                     regs[axis][i] = c;
                 }
             }
-            run_block(*avx2, Block::Values(regs), tape, &[], children, n);
+            run_block(
+                *avx2,
+                Block::Values(regs),
+                tape,
+                &[],
+                children,
+                n,
+                &mut hints,
+            );
+            hints.finish();
             outs[..n].copy_from_slice(&regs[output][..n]);
         }
     }
@@ -407,8 +425,17 @@ impl Vm {
     pub fn value_grad_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) {
         self.init_lanes();
         let output = self.tape.outputs()[0].index();
-        for (pts, outs) in points.chunks(LANES).zip(out.chunks_mut(LANES)) {
+        // Addresses only (never dereferenced), for the prefetch hints.
+        let (points_addr, out_addr, out_len) = (points.as_ptr(), out.as_ptr(), out.len());
+        for (block, (pts, outs)) in points.chunks(LANES).zip(out.chunks_mut(LANES)).enumerate() {
             let n = pts.len().min(outs.len());
+            let mut hints = Prefetch::new(
+                (points_addr, points.len()),
+                (out_addr, out_len),
+                (block + 1) * LANES,
+                LANES,
+                self.tape.instrs().len(),
+            );
             let Vm {
                 tape,
                 children,
@@ -433,7 +460,16 @@ impl Vm {
                     }
                 }
             }
-            run_block(*avx2, Block::Grads(regs), tape, masks, children, n);
+            run_block(
+                *avx2,
+                Block::Grads(regs),
+                tape,
+                masks,
+                children,
+                n,
+                &mut hints,
+            );
+            hints.finish();
             let r = &mut regs[output];
             r.zero_partials_outside(self.output_mask);
             let lanes = r.v.iter().zip(&r.dx).zip(&r.dy).zip(&r.dz);
@@ -442,6 +478,74 @@ impl Vm {
                     value: v,
                     gradient: DVec3::new(dx, dy, dz),
                 };
+            }
+        }
+    }
+}
+
+/// Cache hints for the next block's points and output slots, issued a few lines after each
+/// instruction of the current block: the memory streams keep flowing while the block
+/// computes, instead of stalling the block's input and output loops (a burst of all the
+/// hints at once stalls on the CPU's fill buffers). Hints only: no effect on results.
+struct Prefetch {
+    /// Start and length in bytes of each range still to hint.
+    ranges: [(*const i8, usize); 2],
+    /// Cache lines hinted after each instruction.
+    per_step: usize,
+}
+
+/// Bytes a cache line.
+const CACHE_LINE: usize = 64;
+
+impl Prefetch {
+    /// Items `from..from + n` of each slice (given by address and length; clipped to it),
+    /// spread over `steps` steps.
+    fn new<A, B>(
+        a: (*const A, usize),
+        b: (*const B, usize),
+        from: usize,
+        n: usize,
+        steps: usize,
+    ) -> Prefetch {
+        fn range<T>((base, len): (*const T, usize), from: usize, n: usize) -> (*const i8, usize) {
+            let size = std::mem::size_of::<T>();
+            let bytes = len.saturating_sub(from).min(n) * size;
+            (base.cast::<i8>().wrapping_add(from.min(len) * size), bytes)
+        }
+        let ranges = [range(a, from, n), range(b, from, n)];
+        let lines = (ranges[0].1 + ranges[1].1).div_ceil(CACHE_LINE);
+        Prefetch {
+            ranges,
+            per_step: lines.div_ceil(steps.max(1)),
+        }
+    }
+
+    /// Hints the next `per_step` lines.
+    #[inline(always)]
+    fn step(&mut self) {
+        self.hint(self.per_step);
+    }
+
+    /// Hints the lines not hinted yet.
+    fn finish(&mut self) {
+        self.hint(usize::MAX);
+    }
+
+    #[inline(always)]
+    fn hint(&mut self, mut lines: usize) {
+        for (p, bytes) in &mut self.ranges {
+            while lines > 0 && *bytes > 0 {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: SSE is part of x86_64; a prefetch only hints the cache and never
+                // faults (the address stays inside the slice anyway).
+                unsafe {
+                    use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+                    _mm_prefetch::<_MM_HINT_T0>(*p)
+                };
+                let s = (*bytes).min(CACHE_LINE);
+                *p = p.wrapping_add(s);
+                *bytes -= s;
+                lines -= 1;
             }
         }
     }
@@ -548,15 +652,16 @@ fn run_block(
     masks: &[[u8; 3]],
     children: &mut [Box<dyn Surface>],
     n: usize,
+    hints: &mut Prefetch,
 ) {
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: the CPU has AVX2 (`has_avx2`, checked when the Vm was built).
-        unsafe { run_block_avx2(regs, tape, masks, children, n) };
+        unsafe { run_block_avx2(regs, tape, masks, children, n, hints) };
         return;
     }
     let _ = avx2;
-    run_block_generic(regs, tape, masks, children, n);
+    run_block_generic(regs, tape, masks, children, n, hints);
 }
 
 /// `run_block_generic` compiled for AVX2.
@@ -571,8 +676,9 @@ unsafe fn run_block_avx2(
     masks: &[[u8; 3]],
     children: &mut [Box<dyn Surface>],
     n: usize,
+    hints: &mut Prefetch,
 ) {
-    run_block_generic(regs, tape, masks, children, n);
+    run_block_generic(regs, tape, masks, children, n, hints);
 }
 
 #[inline(always)]
@@ -582,10 +688,12 @@ fn run_block_generic(
     masks: &[[u8; 3]],
     children: &mut [Box<dyn Surface>],
     n: usize,
+    hints: &mut Prefetch,
 ) {
     match regs {
         Block::Values(regs) => {
             for ins in tape.instrs() {
+                hints.step();
                 let o = ins.out.index();
                 if ins.op == Op::Dist {
                     let (Some(child), Some((lo, hi))) = (
@@ -622,6 +730,7 @@ fn run_block_generic(
                     }
                     continue;
                 }
+                hints.step();
                 if !is_sparse(ins.op) {
                     // The dense rule reads every partial: make the structurally zero ones 0.
                     let binary = ins.op.arity() == Arity::Binary;
