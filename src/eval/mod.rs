@@ -5,9 +5,11 @@
 //! The registers live in the [`Vm`] and are reused, so an evaluation allocates nothing. The
 //! batch path keeps the instruction dispatch outside the point loop: it runs each instruction
 //! over [`LANES`] points at a time (structure-of-arrays registers), which lets the compiler
-//! vectorise the arithmetic (in an AVX2 copy where the CPU has it), and computes only the
-//! partials that can be non-zero (per-instruction masks). `dist` instructions call the tape's
-//! child surfaces. `docs/compiler.md` has the measurements behind these choices.
+//! vectorise the arithmetic (in an AVX-512 or AVX2 copy where the CPU has it), and computes
+//! only the partials that can be non-zero (per-instruction masks). While a block computes,
+//! the next block's points and output slots are hinted into the cache a few lines per
+//! instruction, so the memory streams overlap the arithmetic. `dist` instructions call the
+//! tape's child surfaces. `docs/compiler.md` has the measurements behind these choices.
 
 pub mod ops;
 
@@ -18,9 +20,10 @@ use crate::surface::{Surface, ValueGrad};
 pub use ops::Grad;
 
 /// Points per block of the gradient batch path. Measured on the genus-3 and blend benches
-/// (32 to 1024): long lane loops amortise each instruction's dispatch and its per-partial
-/// branches; at 256 a register is 8 KiB and a gallery tape's registers stay in L2.
-pub const LANES: usize = 256;
+/// (32 to 1024 points; with the prefetch hints and AVX-512, 64, 128, 256 and 512): long lane
+/// loops amortise each instruction's dispatch and its per-partial branches; at 128 a register
+/// is 4 KiB, and a gallery tape's ~14 registers (56 KiB) stay between L1 and L2.
+pub const LANES: usize = 128;
 
 /// Points per block of the value-only batch path (a register is 1 KiB).
 pub const VALUE_LANES: usize = 128;
