@@ -5,9 +5,11 @@
 //! The registers live in the [`Vm`] and are reused, so an evaluation allocates nothing. The
 //! batch path keeps the instruction dispatch outside the point loop: it runs each instruction
 //! over [`LANES`] points at a time (structure-of-arrays registers), which lets the compiler
-//! vectorise the arithmetic (in an AVX2 copy where the CPU has it), and computes only the
-//! partials that can be non-zero (per-instruction masks). `dist` instructions call the tape's
-//! child surfaces. `docs/compiler.md` has the measurements behind these choices.
+//! vectorise the arithmetic (in an AVX-512 or AVX2 copy where the CPU has it), and computes
+//! only the partials that can be non-zero (per-instruction masks). While a block computes,
+//! the next block's points and output slots are hinted into the cache a few lines per
+//! instruction, so the memory streams overlap the arithmetic. `dist` instructions call the
+//! tape's child surfaces. `docs/compiler.md` has the measurements behind these choices.
 
 pub mod ops;
 
@@ -18,9 +20,10 @@ use crate::surface::{Surface, ValueGrad};
 pub use ops::Grad;
 
 /// Points per block of the gradient batch path. Measured on the genus-3 and blend benches
-/// (32 to 1024): long lane loops amortise each instruction's dispatch and its per-partial
-/// branches; at 256 a register is 8 KiB and a gallery tape's registers stay in L2.
-pub const LANES: usize = 256;
+/// (32 to 1024 points; with the prefetch hints and AVX-512, 64, 128, 256 and 512): long lane
+/// loops amortise each instruction's dispatch and its per-partial branches; at 128 a register
+/// is 4 KiB, and a gallery tape's ~14 registers (56 KiB) stay between L1 and L2.
+pub const LANES: usize = 128;
 
 /// Points per block of the value-only batch path (a register is 1 KiB).
 pub const VALUE_LANES: usize = 128;
@@ -109,9 +112,10 @@ pub struct Vm {
     grads: Vec<Grad>,
     lane_values: Vec<Lanes>,
     lane_grads: Vec<GradLanes>,
-    /// Whether the CPU has AVX2 (checked once): the block loops then run in a copy compiled
-    /// for it, twice as wide. Results are bit-identical (no fused multiply-add).
-    avx2: bool,
+    /// The widest vector instructions the CPU has (checked once): the block loops run in a
+    /// copy compiled for them. Results are bit-identical (Rust never contracts a·b + c into
+    /// a fused multiply-add).
+    simd: Simd,
     /// Per instruction: which partials (bit k: ∂/∂ input k) can be non-zero in its output and
     /// its two operands. The gradient batch computes only those.
     masks: Vec<[u8; 3]>,
@@ -279,7 +283,7 @@ impl Vm {
             grads,
             lane_values: Vec::new(),
             lane_grads: Vec::new(),
-            avx2: has_avx2(),
+            simd: Simd::detect(),
             masks,
             output_mask,
         })
@@ -384,13 +388,22 @@ impl Vm {
     pub fn value_batch(&mut self, points: &[DVec3], out: &mut [f64]) {
         self.init_lanes();
         let output = self.tape.outputs()[0].index();
-        for (pts, outs) in points.chunks(VALUE_LANES).zip(out.chunks_mut(VALUE_LANES)) {
+        let (points_addr, out_addr, out_len) = (points.as_ptr(), out.as_ptr(), out.len());
+        let blocks = points.chunks(VALUE_LANES).zip(out.chunks_mut(VALUE_LANES));
+        for (block, (pts, outs)) in blocks.enumerate() {
             let n = pts.len().min(outs.len());
+            let mut hints = Prefetch::new(
+                (points_addr, points.len()),
+                (out_addr, out_len),
+                (block + 1) * VALUE_LANES,
+                VALUE_LANES,
+                self.tape.instrs().len(),
+            );
             let Vm {
                 tape,
                 children,
                 lane_values: regs,
-                avx2,
+                simd,
                 ..
             } = self;
             for (i, p) in pts.iter().enumerate() {
@@ -398,7 +411,16 @@ impl Vm {
                     regs[axis][i] = c;
                 }
             }
-            run_block(*avx2, Block::Values(regs), tape, &[], children, n);
+            run_block(
+                *simd,
+                Block::Values(regs),
+                tape,
+                &[],
+                children,
+                n,
+                &mut hints,
+            );
+            hints.finish();
             outs[..n].copy_from_slice(&regs[output][..n]);
         }
     }
@@ -407,13 +429,22 @@ impl Vm {
     pub fn value_grad_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) {
         self.init_lanes();
         let output = self.tape.outputs()[0].index();
-        for (pts, outs) in points.chunks(LANES).zip(out.chunks_mut(LANES)) {
+        // Addresses only (never dereferenced), for the prefetch hints.
+        let (points_addr, out_addr, out_len) = (points.as_ptr(), out.as_ptr(), out.len());
+        for (block, (pts, outs)) in points.chunks(LANES).zip(out.chunks_mut(LANES)).enumerate() {
             let n = pts.len().min(outs.len());
+            let mut hints = Prefetch::new(
+                (points_addr, points.len()),
+                (out_addr, out_len),
+                (block + 1) * LANES,
+                LANES,
+                self.tape.instrs().len(),
+            );
             let Vm {
                 tape,
                 children,
                 lane_grads: regs,
-                avx2,
+                simd,
                 masks,
                 ..
             } = self;
@@ -433,7 +464,16 @@ impl Vm {
                     }
                 }
             }
-            run_block(*avx2, Block::Grads(regs), tape, masks, children, n);
+            run_block(
+                *simd,
+                Block::Grads(regs),
+                tape,
+                masks,
+                children,
+                n,
+                &mut hints,
+            );
+            hints.finish();
             let r = &mut regs[output];
             r.zero_partials_outside(self.output_mask);
             let lanes = r.v.iter().zip(&r.dx).zip(&r.dy).zip(&r.dz);
@@ -442,6 +482,74 @@ impl Vm {
                     value: v,
                     gradient: DVec3::new(dx, dy, dz),
                 };
+            }
+        }
+    }
+}
+
+/// Cache hints for the next block's points and output slots, issued a few lines after each
+/// instruction of the current block: the memory streams keep flowing while the block
+/// computes, instead of stalling the block's input and output loops (a burst of all the
+/// hints at once stalls on the CPU's fill buffers). Hints only: no effect on results.
+struct Prefetch {
+    /// Start and length in bytes of each range still to hint.
+    ranges: [(*const i8, usize); 2],
+    /// Cache lines hinted after each instruction.
+    per_step: usize,
+}
+
+/// Bytes a cache line.
+const CACHE_LINE: usize = 64;
+
+impl Prefetch {
+    /// Items `from..from + n` of each slice (given by address and length; clipped to it),
+    /// spread over `steps` steps.
+    fn new<A, B>(
+        a: (*const A, usize),
+        b: (*const B, usize),
+        from: usize,
+        n: usize,
+        steps: usize,
+    ) -> Prefetch {
+        fn range<T>((base, len): (*const T, usize), from: usize, n: usize) -> (*const i8, usize) {
+            let size = std::mem::size_of::<T>();
+            let bytes = len.saturating_sub(from).min(n) * size;
+            (base.cast::<i8>().wrapping_add(from.min(len) * size), bytes)
+        }
+        let ranges = [range(a, from, n), range(b, from, n)];
+        let lines = (ranges[0].1 + ranges[1].1).div_ceil(CACHE_LINE);
+        Prefetch {
+            ranges,
+            per_step: lines.div_ceil(steps.max(1)),
+        }
+    }
+
+    /// Hints the next `per_step` lines.
+    #[inline(always)]
+    fn step(&mut self) {
+        self.hint(self.per_step);
+    }
+
+    /// Hints the lines not hinted yet.
+    fn finish(&mut self) {
+        self.hint(usize::MAX);
+    }
+
+    #[inline(always)]
+    fn hint(&mut self, mut lines: usize) {
+        for (p, bytes) in &mut self.ranges {
+            while lines > 0 && *bytes > 0 {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: SSE is part of x86_64; a prefetch only hints the cache and never
+                // faults (the address stays inside the slice anyway).
+                unsafe {
+                    use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+                    _mm_prefetch::<_MM_HINT_T0>(*p)
+                };
+                let s = (*bytes).min(CACHE_LINE);
+                *p = p.wrapping_add(s);
+                *bytes -= s;
+                lines -= 1;
             }
         }
     }
@@ -522,14 +630,30 @@ fn sparse_grad_lanes(op: Op, mask: [u8; 3], o: &mut GradLanes, a: &GradLanes, b:
     }
 }
 
-fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
+/// Which compiled copy of the block loops runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Simd {
+    /// The target's baseline (SSE2 on x86_64): two lanes a vector.
+    Baseline,
+    /// Four lanes a vector.
+    Avx2,
+    /// Eight lanes a vector. Measured (docs/compiler.md): value + gradient ~25% faster than
+    /// the AVX2 copy on the benches' AMD EPYC.
+    Avx512,
+}
+
+impl Simd {
+    fn detect() -> Simd {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                return Simd::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                return Simd::Avx2;
+            }
+        }
+        Simd::Baseline
     }
 }
 
@@ -542,21 +666,44 @@ enum Block<'r> {
 /// Runs the tape over one block of points whose first `n` lanes are real (the others hold
 /// stale values; only `dist` looks at `n`, to call its child no more than needed).
 fn run_block(
-    avx2: bool,
+    simd: Simd,
     regs: Block<'_>,
     tape: &Tape,
     masks: &[[u8; 3]],
     children: &mut [Box<dyn Surface>],
     n: usize,
+    hints: &mut Prefetch,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: the CPU has AVX2 (`has_avx2`, checked when the Vm was built).
-        unsafe { run_block_avx2(regs, tape, masks, children, n) };
-        return;
+    match simd {
+        // SAFETY: `Simd::detect` found the feature on this CPU when the Vm was built.
+        Simd::Avx512 => unsafe { run_block_avx512(regs, tape, masks, children, n, hints) },
+        // SAFETY: as above.
+        Simd::Avx2 => unsafe { run_block_avx2(regs, tape, masks, children, n, hints) },
+        Simd::Baseline => run_block_generic(regs, tape, masks, children, n, hints),
     }
-    let _ = avx2;
-    run_block_generic(regs, tape, masks, children, n);
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = simd;
+        run_block_generic(regs, tape, masks, children, n, hints);
+    }
+}
+
+/// `run_block_generic` compiled for AVX-512.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn run_block_avx512(
+    regs: Block<'_>,
+    tape: &Tape,
+    masks: &[[u8; 3]],
+    children: &mut [Box<dyn Surface>],
+    n: usize,
+    hints: &mut Prefetch,
+) {
+    run_block_generic(regs, tape, masks, children, n, hints);
 }
 
 /// `run_block_generic` compiled for AVX2.
@@ -571,8 +718,9 @@ unsafe fn run_block_avx2(
     masks: &[[u8; 3]],
     children: &mut [Box<dyn Surface>],
     n: usize,
+    hints: &mut Prefetch,
 ) {
-    run_block_generic(regs, tape, masks, children, n);
+    run_block_generic(regs, tape, masks, children, n, hints);
 }
 
 #[inline(always)]
@@ -582,10 +730,12 @@ fn run_block_generic(
     masks: &[[u8; 3]],
     children: &mut [Box<dyn Surface>],
     n: usize,
+    hints: &mut Prefetch,
 ) {
     match regs {
         Block::Values(regs) => {
             for ins in tape.instrs() {
+                hints.step();
                 let o = ins.out.index();
                 if ins.op == Op::Dist {
                     let (Some(child), Some((lo, hi))) = (
@@ -622,6 +772,7 @@ fn run_block_generic(
                     }
                     continue;
                 }
+                hints.step();
                 if !is_sparse(ins.op) {
                     // The dense rule reads every partial: make the structurally zero ones 0.
                     let binary = ins.op.arity() == Arity::Binary;
