@@ -15,6 +15,7 @@
 
 pub mod angle;
 pub mod hash;
+mod improve;
 mod marcher;
 pub mod ring;
 pub mod settings;

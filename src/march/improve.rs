@@ -1,0 +1,264 @@
+//! A local repair pass over the finished triangulation: triangles whose smallest angle is
+//! below `MarchSettings::improve_angle` are improved by edge flips and by moving free
+//! vertices towards the middle of their neighbours (then back onto the surface).
+//!
+//! Input: the marcher's points (positions, unit normals ∇f/|∇f|), its triangles, which points
+//! may move, and a projection onto the surface. Output: the same arrays changed in place.
+//!
+//! Invariants kept: the vertex set and the topology (a flip replaces two triangles sharing an
+//! edge by two over the other diagonal; a move keeps every incidence), so watertightness,
+//! boundary loops and the Euler characteristic stay; every change must raise the smallest
+//! angle of the triangles it touches and keep each touched triangle facing the side ∇f
+//! points to at all three corners; edges between two fixed points (polygon edges) are never
+//! flipped and fixed or border points never move. The processing order is index order, so
+//! the result is deterministic.
+
+use glam::DVec3;
+
+/// sin of the smallest angle of triangle (a, b, c): the smallest angle is opposite the
+/// shortest edge, so sin = |(b−a)×(c−a)| / (product of the two longer edges). 0 if
+/// degenerate.
+pub(super) fn min_sin(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (ab, bc, ca) = (
+        a.distance_squared(b),
+        b.distance_squared(c),
+        c.distance_squared(a),
+    );
+    let shortest = ab.min(bc).min(ca);
+    let longer = (ab * bc * ca / shortest).sqrt();
+    let area2 = (b - a).cross(c - a).length();
+    if longer > 0.0 && shortest > 0.0 {
+        area2 / longer
+    } else {
+        0.0
+    }
+}
+
+/// The points and triangles being repaired.
+pub(super) struct Repair<'a> {
+    pub pos: &'a mut [DVec3],
+    pub normal: &'a mut [DVec3],
+    pub triangles: &'a mut [[u32; 3]],
+    /// Per point: may be moved (not a polygon vertex, not a border point).
+    pub movable: &'a [bool],
+    /// Per point: a polygon vertex (edges between two of them are never flipped).
+    pub fixed: &'a [bool],
+}
+
+/// How much cleaning up to do.
+pub(super) struct Limits {
+    /// sin of the angle below which a triangle is repaired.
+    pub sin_bad: f64,
+    /// Rounds of (flips, moves).
+    pub rounds: u32,
+}
+
+impl Repair<'_> {
+    fn q(&self, t: [u32; 3]) -> f64 {
+        let [a, b, c] = t.map(|v| self.pos[v as usize]);
+        min_sin(a, b, c)
+    }
+
+    /// Triangle t with corner positions `p` faces the side ∇f points to at every corner.
+    fn facing(&self, t: [u32; 3], p: [DVec3; 3]) -> bool {
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        t.iter().all(|&v| n.dot(self.normal[v as usize]) > 0.0)
+    }
+
+    /// Runs the repair; `project` puts a point near the surface onto it, returning the
+    /// surface point and its unit normal, or None (off the box, no convergence).
+    pub fn run(
+        &mut self,
+        limits: &Limits,
+        project: &mut dyn FnMut(DVec3) -> Option<(DVec3, DVec3)>,
+    ) {
+        let bad: Vec<u32> = (0..self.triangles.len() as u32)
+            .filter(|&t| self.q(self.triangles[t as usize]) < limits.sin_bad)
+            .collect();
+        if bad.is_empty() {
+            return;
+        }
+        let mut around: Vec<Vec<u32>> = vec![Vec::new(); self.pos.len()];
+        for (i, t) in self.triangles.iter().enumerate() {
+            for &v in t {
+                around[v as usize].push(i as u32);
+            }
+        }
+        let mut work = bad;
+        for _ in 0..limits.rounds {
+            let mut changed = false;
+            // Flips until none helps (bounded: each raises the sorted vector of smallest
+            // angles; the cap guards against rounding cycles).
+            let mut queue = std::collections::VecDeque::from(work.clone());
+            let mut budget = 16 * queue.len() + 64;
+            while let Some(t) = queue.pop_front() {
+                if budget == 0 {
+                    break;
+                }
+                budget -= 1;
+                if self.q(self.triangles[t as usize]) >= limits.sin_bad {
+                    continue;
+                }
+                if let Some(u) = self.flip_best(t, &mut around) {
+                    changed = true;
+                    queue.push_back(t);
+                    queue.push_back(u);
+                }
+            }
+            // Moves of the free corners of triangles still bad.
+            let still: Vec<u32> = work
+                .iter()
+                .copied()
+                .filter(|&t| self.q(self.triangles[t as usize]) < limits.sin_bad)
+                .collect();
+            for &t in &still {
+                for v in self.triangles[t as usize] {
+                    if self.movable[v as usize]
+                        && self.q(self.triangles[t as usize]) < limits.sin_bad
+                    {
+                        changed |= self.relax(v, &around[v as usize], project);
+                    }
+                }
+            }
+            if !changed {
+                break;
+            }
+            // The next round looks at the triangles around what is still bad.
+            let mut next: Vec<u32> = Vec::new();
+            for &t in &still {
+                if self.q(self.triangles[t as usize]) < limits.sin_bad {
+                    for v in self.triangles[t as usize] {
+                        next.extend_from_slice(&around[v as usize]);
+                    }
+                }
+            }
+            next.sort_unstable();
+            next.dedup();
+            next.retain(|&t| self.q(self.triangles[t as usize]) < limits.sin_bad);
+            if next.is_empty() {
+                break;
+            }
+            work = next;
+        }
+    }
+
+    /// Flips the edge of triangle t (longest first) whose flip raises the smaller of the two
+    /// triangles' smallest angles the most... the first that raises it; returns the other
+    /// triangle changed.
+    fn flip_best(&mut self, t: u32, around: &mut [Vec<u32>]) -> Option<u32> {
+        let tri = self.triangles[t as usize];
+        let mut edges: Vec<(f64, usize)> = (0..3)
+            .map(|i| {
+                let (a, b) = (tri[i], tri[(i + 1) % 3]);
+                (
+                    self.pos[a as usize].distance_squared(self.pos[b as usize]),
+                    i,
+                )
+            })
+            .collect();
+        edges.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
+        for (_, i) in edges {
+            let (a, b, c) = (tri[i], tri[(i + 1) % 3], tri[(i + 2) % 3]);
+            if self.fixed[a as usize] && self.fixed[b as usize] {
+                continue;
+            }
+            // The neighbour across a→b runs b→a.
+            let mut across = around[a as usize].iter().copied().filter(|&u| {
+                u != t && {
+                    let s = self.triangles[u as usize];
+                    (0..3).any(|k| s[k] == b && s[(k + 1) % 3] == a)
+                }
+            });
+            let Some(u) = across.next() else { continue };
+            if across.next().is_some() {
+                continue;
+            }
+            let s = self.triangles[u as usize];
+            let Some(&d) = s.iter().find(|&&v| v != a && v != b) else {
+                continue;
+            };
+            if d == c
+                || around[c as usize]
+                    .iter()
+                    .any(|&w| self.triangles[w as usize].contains(&d))
+            {
+                continue;
+            }
+            let (nt, nu) = ([a, d, c], [d, b, c]);
+            let old = self.q(tri).min(self.q(s));
+            let new = self.q(nt).min(self.q(nu));
+            if new <= old * (1.0 + 1e-9) {
+                continue;
+            }
+            let pt = nt.map(|v| self.pos[v as usize]);
+            let pu = nu.map(|v| self.pos[v as usize]);
+            if !self.facing(nt, pt) || !self.facing(nu, pu) {
+                continue;
+            }
+            // No fold: the two new triangles (and the old pair) must be nearly coplanar.
+            let n1 = (pt[1] - pt[0]).cross(pt[2] - pt[0]).normalize_or_zero();
+            let n2 = (pu[1] - pu[0]).cross(pu[2] - pu[0]).normalize_or_zero();
+            if n1.dot(n2) < FOLD_COS {
+                continue;
+            }
+            self.triangles[t as usize] = nt;
+            self.triangles[u as usize] = nu;
+            around[a as usize].retain(|&w| w != u);
+            around[b as usize].retain(|&w| w != t);
+            around[c as usize].push(u);
+            around[d as usize].push(t);
+            return Some(u);
+        }
+        None
+    }
+
+    /// Moves free point v to the surface point nearest the mean of its neighbours if that
+    /// raises the smallest angle around it and keeps every triangle facing ∇f.
+    fn relax(
+        &mut self,
+        v: u32,
+        tris: &[u32],
+        project: &mut dyn FnMut(DVec3) -> Option<(DVec3, DVec3)>,
+    ) -> bool {
+        let mut sum = DVec3::ZERO;
+        let mut count = 0.0;
+        for &t in tris {
+            for w in self.triangles[t as usize] {
+                if w != v {
+                    sum += self.pos[w as usize];
+                    count += 1.0;
+                }
+            }
+        }
+        if count == 0.0 {
+            return false;
+        }
+        let Some((p, n)) = project(sum / count) else {
+            return false;
+        };
+        let old_worst = tris
+            .iter()
+            .map(|&t| self.q(self.triangles[t as usize]))
+            .fold(f64::INFINITY, f64::min);
+        let (old_p, old_n) = (self.pos[v as usize], self.normal[v as usize]);
+        self.pos[v as usize] = p;
+        self.normal[v as usize] = n;
+        let ok = tris.iter().all(|&t| {
+            let tri = self.triangles[t as usize];
+            self.facing(tri, tri.map(|w| self.pos[w as usize]))
+        }) && tris
+            .iter()
+            .map(|&t| self.q(self.triangles[t as usize]))
+            .fold(f64::INFINITY, f64::min)
+            > old_worst * (1.0 + 1e-9);
+        if !ok {
+            self.pos[v as usize] = old_p;
+            self.normal[v as usize] = old_n;
+        }
+        ok
+    }
+}
+
+/// Cosine of the largest angle between the two triangles of a flip: beyond it (≈ 37°) the
+/// quad is folded, not a flat sliver pair.
+const FOLD_COS: f64 = 0.8;
