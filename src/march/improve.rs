@@ -142,9 +142,8 @@ impl Repair<'_> {
         }
     }
 
-    /// Flips the edge of triangle t (longest first) whose flip raises the smaller of the two
-    /// triangles' smallest angles the most... the first that raises it; returns the other
-    /// triangle changed.
+    /// Flips the first edge of triangle t (longest first) whose flip raises the smaller of
+    /// the two triangles' smallest angles; returns the other triangle changed.
     fn flip_best(&mut self, t: u32, around: &mut [Vec<u32>]) -> Option<u32> {
         let tri = self.triangles[t as usize];
         let mut edges: Vec<(f64, usize)> = (0..3)
@@ -262,3 +261,117 @@ impl Repair<'_> {
 /// Cosine of the largest angle between the two triangles of a flip: beyond it (≈ 37°) the
 /// quad is folded, not a flat sliver pair.
 const FOLD_COS: f64 = 0.8;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const UP: DVec3 = DVec3::Z;
+
+    /// Two triangles in the plane z = 0 over the quad a(0,0) b(2,0) c(1,0.2) d(1,−1.5): the
+    /// shared edge a–b makes (a, b, c) a 11° sliver; the other diagonal c–d does not.
+    fn sliver_pair() -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        let pos = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.2, 0.0),
+            DVec3::new(1.0, -1.5, 0.0),
+        ];
+        (pos, vec![[0, 1, 2], [1, 0, 3]])
+    }
+
+    fn repair(pos: &mut [DVec3], tris: &mut [[u32; 3]], fixed: &[bool], movable: &[bool]) {
+        let mut normal = vec![UP; pos.len()];
+        let mut plane = |q: DVec3| Some((DVec3::new(q.x, q.y, 0.0), UP));
+        Repair {
+            pos,
+            normal: &mut normal,
+            triangles: tris,
+            movable,
+            fixed,
+        }
+        .run(
+            &Limits {
+                sin_bad: 0.44f64.sin(),
+                rounds: 3,
+            },
+            &mut plane,
+        );
+    }
+
+    fn worst(pos: &[DVec3], tris: &[[u32; 3]]) -> f64 {
+        tris.iter()
+            .map(|t| min_sin(pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    #[test]
+    fn min_sin_is_the_sine_of_the_smallest_angle() {
+        let s = min_sin(
+            DVec3::ZERO,
+            DVec3::X,
+            DVec3::new(0.5, 3f64.sqrt() / 2.0, 0.0),
+        );
+        assert!((s - 3f64.sqrt() / 2.0).abs() < 1e-12);
+        let s = min_sin(
+            DVec3::ZERO,
+            DVec3::new(4.0, 0.0, 0.0),
+            DVec3::new(4.0, 3.0, 0.0),
+        );
+        assert!((s - 0.6).abs() < 1e-12, "{s}");
+        assert_eq!(min_sin(DVec3::ZERO, DVec3::ZERO, DVec3::X), 0.0);
+    }
+
+    #[test]
+    fn a_sliver_is_flipped_to_the_other_diagonal() {
+        let (mut pos, mut tris) = sliver_pair();
+        let before = worst(&pos, &tris);
+        repair(&mut pos, &mut tris, &[false; 4], &[false; 4]);
+        assert!(worst(&pos, &tris) > before);
+        // Same corners, edge c–d now, still counter-clockwise seen from +z.
+        for t in &tris {
+            assert!(t.contains(&2) && t.contains(&3), "{tris:?}");
+            let [a, b, c] = t.map(|v| pos[v as usize]);
+            assert!((b - a).cross(c - a).z > 0.0);
+        }
+    }
+
+    #[test]
+    fn an_edge_between_polygon_vertices_is_kept() {
+        let (mut pos, mut tris) = sliver_pair();
+        let orig = tris.clone();
+        repair(
+            &mut pos,
+            &mut tris,
+            &[true, true, false, false],
+            &[false; 4],
+        );
+        assert_eq!(tris, orig);
+    }
+
+    #[test]
+    fn a_free_corner_moves_and_fixed_ones_stay() {
+        // A fan around point 0 (free) that sits almost on the edge 1–2.
+        let mut pos = vec![
+            DVec3::new(0.95, 0.0, 0.0),
+            DVec3::new(1.0, -1.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(-1.0, 1.0, 0.0),
+            DVec3::new(-1.0, -1.0, 0.0),
+        ];
+        let mut tris = vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]];
+        let orig = pos.clone();
+        let movable = [true, false, false, false, false];
+        let before = worst(&pos, &tris);
+        repair(
+            &mut pos,
+            &mut tris,
+            &[false, true, true, true, true],
+            &movable,
+        );
+        assert!(worst(&pos, &tris) > before);
+        assert_ne!(pos[0], orig[0]);
+        assert_eq!(pos[0].z, 0.0);
+        assert_eq!(&pos[1..], &orig[1..]);
+    }
+}
