@@ -66,18 +66,20 @@ impl Repair<'_> {
     }
 
     /// Runs the repair; `project` puts a point near the surface onto it, returning the
-    /// surface point and its unit normal, or None (off the box, no convergence).
+    /// surface point and its unit normal, or None (off the box, no convergence). Returns
+    /// (triangles below the limit at the start, flips, moves).
     pub fn run(
         &mut self,
         limits: &Limits,
         project: &mut dyn FnMut(DVec3) -> Option<(DVec3, DVec3)>,
-    ) {
+    ) -> (usize, usize, usize) {
         let bad: Vec<u32> = (0..self.triangles.len() as u32)
             .filter(|&t| self.q(self.triangles[t as usize]) < limits.sin_bad)
             .collect();
         if bad.is_empty() {
-            return;
+            return (0, 0, 0);
         }
+        let (found, mut flips, mut moves) = (bad.len(), 0, 0);
         let mut around: Vec<Vec<u32>> = vec![Vec::new(); self.pos.len()];
         for (i, t) in self.triangles.iter().enumerate() {
             for &v in t {
@@ -101,6 +103,7 @@ impl Repair<'_> {
                 }
                 if let Some(u) = self.flip_best(t, &mut around) {
                     changed = true;
+                    flips += 1;
                     queue.push_back(t);
                     queue.push_back(u);
                 }
@@ -115,8 +118,10 @@ impl Repair<'_> {
                 for v in self.triangles[t as usize] {
                     if self.movable[v as usize]
                         && self.q(self.triangles[t as usize]) < limits.sin_bad
+                        && self.relax(v, &around[v as usize], project)
                     {
-                        changed |= self.relax(v, &around[v as usize], project);
+                        changed = true;
+                        moves += 1;
                     }
                 }
             }
@@ -140,6 +145,7 @@ impl Repair<'_> {
             }
             work = next;
         }
+        (found, flips, moves)
     }
 
     /// Flips the first edge of triangle t (longest first) whose flip raises the smaller of

@@ -971,7 +971,7 @@ impl Marcher<'_> {
             };
             inside.then_some((sp.point, sp.normal))
         };
-        improve::Repair {
+        let (found, flips, moves) = improve::Repair {
             pos: &mut self.pos,
             normal: &mut self.normal,
             triangles: &mut self.triangles,
@@ -979,6 +979,12 @@ impl Marcher<'_> {
             fixed: &fixed,
         }
         .run(&limits, &mut project);
+        if self.trace {
+            eprintln!(
+                "march: repair: {found} triangle(s) below {:.1}°, {flips} flip(s), {moves} move(s)",
+                self.s.improve_angle.to_degrees()
+            );
+        }
     }
 
     /// The mesh, without the points merged away by `collapse` (renumbered in order, so
