@@ -118,14 +118,7 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
         .output
         .clone()
         .unwrap_or_else(|| format.default_output(&args.file));
-    let named: Vec<NamedMesh> = meshed
-        .iter()
-        .map(|m| NamedMesh {
-            name: &m.name,
-            mesh: &m.mesh,
-        })
-        .collect();
-    if let Err(e) = write_mesh_file(&output, format, &named) {
+    if let Err(e) = write_mesh_file(&output, format, &named(&meshed)) {
         eprintln!("error: {e}");
         return EXIT_USAGE;
     }
@@ -162,6 +155,17 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
         eprintln!("wrote {}", output.display());
     }
     0
+}
+
+/// The meshes as the writers and the renderer take them.
+pub(crate) fn named(meshed: &[Meshed]) -> Vec<NamedMesh<'_>> {
+    meshed
+        .iter()
+        .map(|m| NamedMesh {
+            name: &m.name,
+            mesh: &m.mesh,
+        })
+        .collect()
 }
 
 /// The mesh blocks to mesh, in file order: all, or those `--only` names. An unknown name is

@@ -4,9 +4,8 @@
 use std::path::PathBuf;
 
 use super::load::load;
-use super::mesh::{mesh_blocks, select};
+use super::mesh::{mesh_blocks, named, select};
 use super::{ColorMode, EXIT_USAGE};
-use crate::mesh::NamedMesh;
 use crate::mesh::render::{RenderOptions, parse_size, parse_view, write_picture_file};
 
 #[derive(clap::Args, Debug)]
@@ -56,14 +55,7 @@ pub fn run(args: RenderArgs, color: ColorMode) -> u8 {
         Ok(m) => m,
         Err(code) => return code,
     };
-    let named: Vec<NamedMesh> = meshed
-        .iter()
-        .map(|m| NamedMesh {
-            name: &m.name,
-            mesh: &m.mesh,
-        })
-        .collect();
-    if let Err(e) = write_picture_file(&args.output, &named, &options) {
+    if let Err(e) = write_picture_file(&args.output, &named(&meshed), &options) {
         eprintln!("error: {e}");
         return EXIT_USAGE;
     }

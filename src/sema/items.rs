@@ -152,17 +152,22 @@ impl<'f> Checker<'f> {
         args: &'a [ast::Arg],
         call_span: Span,
         positional: usize,
-        named: &[&str],
-        optional: &[&str],
+        names: &[&str],
     ) -> Option<CurveArgs<'a>> {
         let mut ok = true;
         let mut pos = Vec::new();
-        let all: Vec<&str> = named.iter().chain(optional).copied().collect();
+        // Optional names end in `?` and come after the required ones.
+        let named: Vec<&str> = names
+            .iter()
+            .copied()
+            .filter(|n| !n.ends_with('?'))
+            .collect();
+        let all: Vec<&str> = names.iter().map(|n| n.trim_end_matches('?')).collect();
         let mut found: Vec<Option<(&ast::Ident, &ast::Expr)>> = vec![None; all.len()];
         for a in args {
             match &a.name {
                 None => {
-                    if named.is_empty() || pos.len() < positional {
+                    if all.is_empty() || pos.len() < positional {
                         pos.push(&a.value);
                     } else {
                         self.diags.push(messages::positional_where_named(
@@ -244,15 +249,8 @@ impl<'f> Checker<'f> {
         let span = e.span;
         match callee.name.as_str() {
             "intersection" => {
-                let (pos, named, _) = self.curve_args(
-                    "intersection",
-                    INTERSECTION_SIG,
-                    args,
-                    span,
-                    2,
-                    &["near"],
-                    &[],
-                )?;
+                let (pos, named, _) =
+                    self.curve_args("intersection", INTERSECTION_SIG, args, span, 2, &["near"])?;
                 let mut cx = Ctx::new(Place::Surface, &[], owner);
                 let first = self.lower_surface_ref(pos[0], &mut cx);
                 let second = self.lower_surface_ref(pos[1], &mut cx);
@@ -273,8 +271,7 @@ impl<'f> Checker<'f> {
                     args,
                     span,
                     0,
-                    &["center", "normal", "radius"],
-                    &["segments"],
+                    &["center", "normal", "radius", "segments?"],
                 )?;
                 let center = self.point(named[0], "the circle's center");
                 let normal = self.point(named[1], "the circle's normal");
@@ -301,7 +298,7 @@ impl<'f> Checker<'f> {
                     None => None,
                     Some(e) => {
                         let n = self.number(e, "the circle's number of segments")?;
-                        if !(n >= 3.0 && n <= MAX_CIRCLE_SEGMENTS && n.fract() == 0.0) {
+                        if !((3.0..=MAX_CIRCLE_SEGMENTS).contains(&n) && n.fract() == 0.0) {
                             self.diags.push(messages::bad_circle(
                                 e.span,
                                 &format!(
@@ -321,8 +318,7 @@ impl<'f> Checker<'f> {
                 })
             }
             "boundary" => {
-                let (pos, _, _) =
-                    self.curve_args("boundary", BOUNDARY_SIG, args, span, 1, &[], &[])?;
+                let (pos, _, _) = self.curve_args("boundary", BOUNDARY_SIG, args, span, 1, &[])?;
                 let p = pos[0];
                 if let ast::ExprKind::Name(n) = &p.kind {
                     if let Some(&d) = self.globals.get(n.as_str()) {
@@ -352,8 +348,7 @@ impl<'f> Checker<'f> {
                 None
             }
             _ => {
-                let (pos, _, _) =
-                    self.curve_args("reverse", REVERSE_SIG, args, span, 1, &[], &[])?;
+                let (pos, _, _) = self.curve_args("reverse", REVERSE_SIG, args, span, 1, &[])?;
                 let c = self.curve_ref(pos[0], owner, &format!("{label}.reversed"))?;
                 Some(CurveKind::Reverse(c))
             }

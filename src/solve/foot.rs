@@ -7,6 +7,9 @@
 //!   coordinates, (I + d·W) w = P_T(x − q), W the Weingarten map estimated by central
 //!   differences of ∇f; the plain tangent-plane projection (w = P_T(x − q)) converges only
 //!   for |d·κ| < 1 and oscillates beyond (outside a thin torus tube, say).
+//!   A global phase follows ([`foot_point_hinted`]): f sampled along 26 fixed rays from x at
+//!   1.25 times the distance found; a sign change starts another local search there, and the
+//!   nearest foot wins, so the answer does not depend on which sheet the start fell towards.
 //! - Parametric patch ([`patch_foot`]): Newton on (u, v) for ½|P(u, v) − x|², second
 //!   derivatives by central differences, seeded by a coarse grid pre-search over the extended
 //!   declared domain, a warm start running first (see [`patch_foot`]).
@@ -40,7 +43,8 @@ const OFF_CENTRE_DIRECTION: DVec3 = DVec3::new(0.6, 0.48, 0.64);
 /// A foot point on an implicit surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Foot {
-    /// q: the surface point nearest to x (locally; see the module docs).
+    /// q: the surface point nearest to x (among the sheets the global phase sees; see the
+    /// module docs).
     pub point: DVec3,
     /// ∇f/|∇f| at q.
     pub normal: DVec3,
@@ -181,6 +185,9 @@ pub fn foot_point(
 /// `foot_point` with a curvature estimate from an earlier search (a warm start's), reused
 /// while the iterate stays within `curvature_reuse · scale` of where it was measured. The
 /// estimate only sets the speed of convergence, never the foot point.
+///
+/// The local search from `start` is followed by the global phase (see `global_foot`), which
+/// makes the answer independent of the start wherever its rays resolve the sheets.
 pub fn foot_point_hinted(
     surface: &mut dyn Surface,
     x: DVec3,
@@ -188,10 +195,80 @@ pub fn foot_point_hinted(
     curvature: Option<Curvature>,
     tol: &FootTolerance,
 ) -> Result<Foot, FootError> {
-    let mut shape = curvature;
     if !x.is_finite() {
         return Err(FootError::NotFinite { x });
     }
+    let first = local_foot(surface, x, start, curvature, tol)?;
+    Ok(global_foot(surface, x, first, tol))
+}
+
+/// The global phase: `first` is a local foot point at distance |d|. Along each of the
+/// [`RAY_DIRECTIONS`] not within `global_skip_cos` of the direction to `first.point`, f is
+/// sampled at x + `global_margin`·|d|·u; a sign opposite to f(x) proves that the surface
+/// crosses that ray inside the sampled radius, so a local search starts there, and the nearest
+/// foot wins (ties: the earlier, so the result is deterministic). The rays depend only on x
+/// and the first distance, and every sheet crossing a ray within the margin is searched, so a
+/// warm and a cold start end in the same foot point wherever the rays resolve the sheets.
+fn global_foot(surface: &mut dyn Surface, x: DVec3, first: Foot, tol: &FootTolerance) -> Foot {
+    let d = first.distance.abs();
+    if tol.global_margin <= 0.0 || d == 0.0 {
+        return first;
+    }
+    let fx = surface.value(x);
+    if !fx.is_finite() || fx == 0.0 {
+        return first;
+    }
+    let towards = (first.point - x) / d;
+    let radius = tol.global_margin * d;
+    let mut best = first;
+    for &(i, j, k) in RAY_DIRECTIONS.iter() {
+        let u = DVec3::new(i, j, k).normalize();
+        if u.dot(towards) > tol.global_skip_cos {
+            continue;
+        }
+        let y = x + radius * u;
+        let fy = surface.value(y);
+        if !fy.is_finite() || fy.signum() == fx.signum() {
+            continue;
+        }
+        if let Ok(f) = local_foot(surface, x, Some(y), None, tol)
+            && f.distance.abs() < best.distance.abs()
+        {
+            best = f;
+        }
+    }
+    best
+}
+
+/// The 26 directions from the centre of a 3 × 3 × 3 cube to its other cells (unnormalised),
+/// in a fixed order: no direction is more than ≈ 28° from one of them.
+const RAY_DIRECTIONS: [(f64, f64, f64); 26] = {
+    let mut dirs = [(0.0, 0.0, 0.0); 26];
+    let mut n = 0;
+    let mut c = 0;
+    while c < 27 {
+        if c != 13 {
+            dirs[n] = (
+                (c / 9) as f64 - 1.0,
+                ((c / 3) % 3) as f64 - 1.0,
+                (c % 3) as f64 - 1.0,
+            );
+            n += 1;
+        }
+        c += 1;
+    }
+    dirs
+};
+
+/// One local foot-point search (the iteration of the module docs) from surfacepoint(`start`).
+fn local_foot(
+    surface: &mut dyn Surface,
+    x: DVec3,
+    start: Option<DVec3>,
+    curvature: Option<Curvature>,
+    tol: &FootTolerance,
+) -> Result<Foot, FootError> {
+    let mut shape = curvature;
     let scale = tol.scale;
     let project = |surface: &mut dyn Surface, p: DVec3, iteration: u32| {
         surface_point(surface, p, scale, &tol.surface_point)

@@ -69,6 +69,16 @@ pub struct FootTolerance {
     /// the nearest point is locally unique, so the warm and the cold search find the same
     /// foot point.
     pub warm_min_eigenvalue: f64,
+    /// The global phase (`solve::foot`): after the local search found a foot at distance |d|,
+    /// f is sampled along 26 fixed rays from x at radius `global_margin * |d|`, and a sign
+    /// change starts another local search there (a nearer sheet crosses that ray).
+    /// Dimensionless; 0 disables the phase. Default 1.25: a flat sheet nearer than the found
+    /// one is crossed by a ray within 37° of its normal, and every direction is within ≈ 28°
+    /// of one of the rays.
+    pub global_margin: f64,
+    /// Rays within this cosine of the direction from x to the found foot point are not sampled:
+    /// their crossing is that foot's own sheet. Default 0.7 (≈ 45°).
+    pub global_skip_cos: f64,
     /// The surfacepoint projection used inside the search (its `scale` is `scale` above).
     pub surface_point: SurfacePointTolerance,
 }
@@ -86,6 +96,8 @@ impl Default for FootTolerance {
             max_backtracks: 30,
             warm_radius: 1.0,
             warm_min_eigenvalue: 0.5,
+            global_margin: 1.25,
+            global_skip_cos: 0.7,
             surface_point: SurfacePointTolerance::default(),
         }
     }

@@ -10,8 +10,9 @@
 //! Warm start: each surface remembers its last query and foot point. `ImplicitDist` starts a
 //! query within `warm_radius · scale` of the last one from the last foot point (and its
 //! curvature), but only if that foot point was regular (x well inside the tubular
-//! neighbourhood, see `FootTolerance::warm_min_eigenvalue`), so warm and cold searches converge
-//! to the same foot point; a failed warm search is repeated cold. `PatchDist` runs Newton from
+//! neighbourhood, see `FootTolerance::warm_min_eigenvalue`); a failed warm search is repeated
+//! cold, and both are followed by the global phase of `solve::foot`, so a warm start that lands
+//! on another local foot point (another side of a quartic cylinder) is corrected. `PatchDist` runs Newton from
 //! the last (u, v) first and then from the pre-search seeds, so a warm start only saves work.
 //! Answers depend on the order of queries only at the level of the convergence tolerance, and
 //! that order is itself deterministic.
