@@ -80,12 +80,7 @@ impl Repair<'_> {
             return (0, 0, 0);
         }
         let (found, mut flips, mut moves) = (bad.len(), 0, 0);
-        let mut around: Vec<Vec<u32>> = vec![Vec::new(); self.pos.len()];
-        for (i, t) in self.triangles.iter().enumerate() {
-            for &v in t {
-                around[v as usize].push(i as u32);
-            }
-        }
+        let mut around = Around::new(self.triangles, self.pos.len(), &bad);
         let mut work = bad;
         for _ in 0..limits.rounds {
             let mut changed = false;
@@ -118,7 +113,9 @@ impl Repair<'_> {
                 for v in self.triangles[t as usize] {
                     if self.movable[v as usize]
                         && self.q(self.triangles[t as usize]) < limits.sin_bad
-                        && self.relax(v, &around[v as usize], project)
+                        && around
+                            .get(v)
+                            .is_some_and(|tris| self.relax(v, tris, project))
                     {
                         changed = true;
                         moves += 1;
@@ -133,7 +130,7 @@ impl Repair<'_> {
             for &t in &still {
                 if self.q(self.triangles[t as usize]) < limits.sin_bad {
                     for v in self.triangles[t as usize] {
-                        next.extend_from_slice(&around[v as usize]);
+                        next.extend_from_slice(around.get(v).unwrap_or(&[]));
                     }
                 }
             }
@@ -150,7 +147,7 @@ impl Repair<'_> {
 
     /// Flips the first edge of triangle t (longest first) whose flip raises the smaller of
     /// the two triangles' smallest angles; returns the other triangle changed.
-    fn flip_best(&mut self, t: u32, around: &mut [Vec<u32>]) -> Option<u32> {
+    fn flip_best(&mut self, t: u32, around: &mut Around) -> Option<u32> {
         let tri = self.triangles[t as usize];
         let mut edges: Vec<(f64, usize)> = (0..3)
             .map(|i| {
@@ -168,7 +165,10 @@ impl Repair<'_> {
                 continue;
             }
             // The neighbour across a→b runs b→a.
-            let mut across = around[a as usize].iter().copied().filter(|&u| {
+            let (Some(ta), Some(tc)) = (around.get(a), around.get(c)) else {
+                continue;
+            };
+            let mut across = ta.iter().copied().filter(|&u| {
                 u != t && {
                     let s = self.triangles[u as usize];
                     (0..3).any(|k| s[k] == b && s[(k + 1) % 3] == a)
@@ -183,9 +183,9 @@ impl Repair<'_> {
                 continue;
             };
             if d == c
-                || around[c as usize]
-                    .iter()
-                    .any(|&w| self.triangles[w as usize].contains(&d))
+                || around.get(b).is_none()
+                || around.get(d).is_none()
+                || tc.iter().any(|&w| self.triangles[w as usize].contains(&d))
             {
                 continue;
             }
@@ -208,10 +208,10 @@ impl Repair<'_> {
             }
             self.triangles[t as usize] = nt;
             self.triangles[u as usize] = nu;
-            around[a as usize].retain(|&w| w != u);
-            around[b as usize].retain(|&w| w != t);
-            around[c as usize].push(u);
-            around[d as usize].push(t);
+            around.edit(a, |l| l.retain(|&w| w != u));
+            around.edit(b, |l| l.retain(|&w| w != t));
+            around.edit(c, |l| l.push(u));
+            around.edit(d, |l| l.push(t));
             return Some(u);
         }
         None
@@ -261,6 +261,59 @@ impl Repair<'_> {
             self.normal[v as usize] = old_n;
         }
         ok
+    }
+}
+
+/// The triangles around each point near the bad triangles: the corners of the bad triangles
+/// and every point of a triangle touching one (two rings). Points farther out have no entry,
+/// and a flip or move that would need one is not done, so the map costs memory and time in
+/// proportion to the bad triangles (plus one scan), not to the mesh.
+struct Around {
+    /// Per point: index into `lists`, or u32::MAX.
+    slot: Vec<u32>,
+    lists: Vec<Vec<u32>>,
+}
+
+impl Around {
+    fn new(triangles: &[[u32; 3]], points: usize, bad: &[u32]) -> Self {
+        let mut seed = vec![false; points];
+        for &t in bad {
+            for v in triangles[t as usize] {
+                seed[v as usize] = true;
+            }
+        }
+        let mut slot = vec![u32::MAX; points];
+        let mut lists: Vec<Vec<u32>> = Vec::new();
+        for t in triangles {
+            if t.iter().any(|&v| seed[v as usize]) {
+                for &v in t {
+                    if slot[v as usize] == u32::MAX {
+                        slot[v as usize] = lists.len() as u32;
+                        lists.push(Vec::new());
+                    }
+                }
+            }
+        }
+        for (i, t) in triangles.iter().enumerate() {
+            for &v in t {
+                if let Some(l) = lists.get_mut(slot[v as usize] as usize) {
+                    l.push(i as u32);
+                }
+            }
+        }
+        Around { slot, lists }
+    }
+
+    fn get(&self, v: u32) -> Option<&[u32]> {
+        self.lists
+            .get(self.slot[v as usize] as usize)
+            .map(|l| &l[..])
+    }
+
+    fn edit(&mut self, v: u32, f: impl FnOnce(&mut Vec<u32>)) {
+        if let Some(l) = self.lists.get_mut(self.slot[v as usize] as usize) {
+            f(l);
+        }
     }
 }
 
