@@ -11,10 +11,14 @@
 //! bit-identical coordinates, first the front's, then each bound's in the order given;
 //! vertices with bit-identical coordinates in several polygons are one mesh vertex.
 //!
+//! After the march a repair pass (`improve`) flips edges of and moves free corners of
+//! triangles below `MarchSettings::improve_angle`, keeping the topology and polygon vertices.
+//!
 //! `SURFC_TRACE=1` in the environment prints a step-by-step trace to stderr.
 
 pub mod angle;
 pub mod hash;
+mod improve;
 mod marcher;
 pub mod ring;
 pub mod settings;

@@ -38,6 +38,12 @@ pub struct MarchSettings {
     /// face (a border point), so that no edge between it and the border shrinks to a sliver.
     /// Default 0.3.
     pub box_snap: f64,
+    /// Repair pass after the march: triangles whose smallest angle is below this get edge
+    /// flips and moves of their free corners (`improve.rs`). Default 0.44 rad (≈ 25°).
+    /// 0 turns the pass off.
+    pub improve_angle: f64,
+    /// Rounds of the repair pass (flips, then moves). Default 3.
+    pub improve_rounds: u32,
     /// Largest number of triangles before the marcher gives up (`MarchInput::max_triangles`
     /// overrides it). Default 10 000 000 (a sphere at step radius/500; ~10 s).
     pub max_triangles: u64,
@@ -65,6 +71,8 @@ impl Default for MarchSettings {
             close_neighbour: 0.5,
             collapse_angle: 0.35,
             box_snap: 0.3,
+            improve_angle: 0.44,
+            improve_rounds: 3,
             max_triangles: 10_000_000,
             polygon_edge_min: 0.25,
             polygon_edge_max: 2.5,

@@ -1,0 +1,117 @@
+//! The repair pass (docs/marcher.md, "Repair pass"): the same input meshed with the pass off
+//! (`improve_angle = 0`) and on. The pass must keep the vertex count, the triangle count,
+//! the Euler characteristic and the boundary loops, never move a vertex on a box face, raise
+//! (or keep) the smallest angle to at least 15°, and leave the bulk of the triangles alone
+//! (median within 1°). The worst triangle of the unrepaired mesh is printed with its
+//! neighbourhood (run with --nocapture), which is how the thin triangles were diagnosed.
+
+mod common;
+
+use common::*;
+use glam::DVec3;
+use surfc::march::{MarchInput, MarchSettings, march};
+use surfc::mesh::Mesh;
+use surfc::mesh::quality::{quality, triangle_angles};
+use surfc::mesh::topology::topology;
+
+fn smallest(m: &Mesh, t: [u32; 3]) -> f64 {
+    let [a, b, c] = t.map(|v| m.vertices[v as usize]);
+    triangle_angles(a, b, c)
+        .into_iter()
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The worst triangle of `m`, its corners, and every triangle sharing a corner with it.
+fn print_worst(name: &str, m: &Mesh, step: f64) {
+    let Some((worst, &t)) = m
+        .triangles
+        .iter()
+        .enumerate()
+        .min_by(|x, y| smallest(m, *x.1).total_cmp(&smallest(m, *y.1)))
+    else {
+        return;
+    };
+    println!(
+        "{name}: worst triangle {worst} {t:?} smallest angle {:.1}°",
+        smallest(m, t)
+    );
+    for v in t {
+        println!("  corner {v} at {}", m.vertices[v as usize]);
+    }
+    for (i, &u) in m.triangles.iter().enumerate() {
+        if i != worst && u.iter().any(|v| t.contains(v)) {
+            let [a, b, c] = u.map(|v| m.vertices[v as usize]);
+            println!(
+                "  neighbour {i} {u:?} smallest angle {:.1}°, edges {:.2} {:.2} {:.2} δ",
+                smallest(m, u),
+                a.distance(b) / step,
+                b.distance(c) / step,
+                c.distance(a) / step
+            );
+        }
+    }
+}
+
+fn compare(name: &str, mut surface: Boxed, input: &MarchInput) {
+    let off = MarchSettings {
+        improve_angle: 0.0,
+        ..MarchSettings::default()
+    };
+    let raw = march(surface.as_mut(), input, &off).expect("meshes without the pass");
+    let fixed = march(surface.as_mut(), input, &MarchSettings::default()).expect("meshes");
+    print_worst(name, &raw, input.step);
+    assert_eq!(raw.vertices.len(), fixed.vertices.len(), "{name}");
+    assert_eq!(raw.triangles.len(), fixed.triangles.len(), "{name}");
+    let (tr, tf) = (topology(&raw), topology(&fixed));
+    assert_eq!(tr.euler_characteristic, tf.euler_characteristic, "{name}");
+    assert_eq!(tr.boundary_loops, tf.boundary_loops, "{name}");
+    if let Some((lo, hi)) = input.bbox {
+        for (p, q) in raw.vertices.iter().zip(&fixed.vertices) {
+            let on_face = |p: DVec3| (0..3).any(|k| p[k] == lo[k] || p[k] == hi[k]);
+            if on_face(*p) {
+                assert_eq!(p, q, "{name}: a vertex on the box moved");
+            }
+        }
+    }
+    let (qr, qf) = (quality(&raw), quality(&fixed));
+    println!(
+        "{name}: smallest angle {:.1}° → {:.1}°, 1 % {:.1}° → {:.1}°, median {:.1}° → {:.1}°",
+        qr.min_angle_deg,
+        qf.min_angle_deg,
+        qr.p1_angle_deg,
+        qf.p1_angle_deg,
+        qr.median_angle_deg,
+        qf.median_angle_deg
+    );
+    assert!(qf.min_angle_deg >= qr.min_angle_deg.min(25.0), "{name}");
+    assert!(qf.min_angle_deg >= 15.0, "{name}");
+    assert!(
+        (qf.median_angle_deg - qr.median_angle_deg).abs() < 1.0,
+        "{name}"
+    );
+}
+
+#[test]
+fn genus3_keeps_its_topology_and_gains_angle() {
+    compare(
+        "genus 3 δ=0.3",
+        genus3(),
+        &MarchInput::from_point(0.3, DVec3::new(0.0, 3.0, 0.0)),
+    );
+}
+
+#[test]
+fn three_cylinders_keep_their_border() {
+    let mut input = MarchInput::from_point(0.5, DVec3::ZERO);
+    input.bbox = Some((DVec3::new(-7.0, -7.0, -7.0), DVec3::new(7.0, 7.0, 5.0)));
+    compare("three cylinders δ=0.5", three_cylinders(2287.5587), &input);
+}
+
+#[test]
+fn torus_keeps_its_topology_and_gains_angle() {
+    compare(
+        "torus δ=0.1",
+        torus(1.0, 0.35),
+        &MarchInput::from_point(0.1, DVec3::new(1.0, 0.0, 0.5)),
+    );
+}
