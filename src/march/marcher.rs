@@ -495,23 +495,16 @@ impl Marcher<'_> {
                 }
             };
             let last_at = self.p(m);
-            if self.rings.len(actual) == 4 && self.close_quad(m) {
+            // A front of four points closes with two triangles, one of three with one.
+            let closed = if self.rings.len(actual) == 4 && self.close_quad(m) {
                 if self.trace {
                     eprintln!(
                         "march: close front {} with two triangles at {}",
                         actual.0, last_at
                     );
                 }
-                self.retire(actual);
-                match self.next_front() {
-                    Some(f) => {
-                        actual = f;
-                        continue;
-                    }
-                    None => return Ok(()),
-                }
-            }
-            if self.rings.len(actual) <= 3 {
+                true
+            } else if self.rings.len(actual) <= 3 {
                 let (a, b) = (self.rings.prev(m), self.rings.next(m));
                 if self.rings.len(actual) == 3 {
                     let (pa, pb, pm) = (
@@ -527,6 +520,11 @@ impl Marcher<'_> {
                         );
                     }
                 }
+                true
+            } else {
+                false
+            };
+            if closed {
                 self.retire(actual);
                 match self.next_front() {
                     Some(f) => {
