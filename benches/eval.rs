@@ -1,7 +1,9 @@
 //! Bytecode against native Rust: value, and value + gradient, over a batch of points in the
 //! model's box, for the genus-3 surface (paper Sect. 3.5) and the G2 blend of three cylinders
 //! (Sect. 3.10). The native versions are the same formulas written in Rust with hand-derived
-//! gradients. Also the single-point path the marcher uses (one `value_gradient` call a point).
+//! gradients. "bytecode" is the default batch engine (the tape translated to native code),
+//! "blocks" the block interpreter; also the single-point path the marcher uses (one
+//! `value_gradient` call a point), and the time to translate a tape to native code.
 //!
 //! `cargo bench --bench eval -- --warm-up-time 1 --measurement-time 3`
 
@@ -10,6 +12,8 @@ use std::hint::black_box;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
 use surfc::compile::compile_surface;
+use surfc::eval::Engine;
+use surfc::eval::native::NativeTape;
 use surfc::sema::program::{SurfaceId, SurfaceRef};
 use surfc::surface::compiled::CompiledSurface;
 use surfc::surface::{Surface, ValueGrad};
@@ -167,6 +171,17 @@ fn bench_surface<V, G>(
                 *o = grad(*p);
             }
         })
+    });
+    surface.set_engine(Engine::Blocks);
+    group.bench_function("value/blocks", |b| {
+        b.iter(|| surface.value_batch(black_box(&pts), &mut values))
+    });
+    group.bench_function("value_gradient/blocks", |b| {
+        b.iter(|| surface.value_gradient_batch(black_box(&pts), &mut grads))
+    });
+    surface.set_engine(Engine::Native);
+    group.bench_function("compile_native", |b| {
+        b.iter(|| NativeTape::new(black_box(surface.tape())).unwrap())
     });
     group.bench_function("value_gradient_single/bytecode", |b| {
         b.iter(|| {

@@ -12,7 +12,8 @@ use common::{BLEND, GENUS3, Reference, Rng, SPHERE, TORUS, program, surface_id};
 use glam::DVec3;
 use surfc::compile::tape::{Instr, Op, Reg, Tape};
 use surfc::compile::{compile_patch, compile_surface};
-use surfc::eval::{Grad, Vm};
+use surfc::eval::native::NativeError;
+use surfc::eval::{Engine, Grad, Vm};
 use surfc::sema::program::{PatchId, Program, SurfaceRef};
 use surfc::surface::compiled::CompiledSurface;
 use surfc::surface::{NativeSurface, Patch, Surface, ValueGrad};
@@ -67,8 +68,16 @@ fn check_surface(
         };
         POINTS
     ];
+    // Both batch engines: the native code (the default) and the block interpreter.
+    let mut block_v = batch_v.clone();
+    let mut block_g = batch_g.clone();
+    surface.set_engine(Engine::Blocks);
+    surface.value_batch(&points, &mut block_v);
+    surface.value_gradient_batch(&points, &mut block_g);
+    surface.set_engine(Engine::Native);
     surface.value_batch(&points, &mut batch_v);
     surface.value_gradient_batch(&points, &mut batch_g);
+    assert_native_unless_children(name, surface);
     for (i, &p) in points.iter().enumerate() {
         let want = reference(p);
         let v = surface.value(p);
@@ -88,6 +97,12 @@ fn check_surface(
             "{name} at {p}: batch value"
         );
         assert_eq!(batch_g[i], vg, "{name} at {p}: batch gradient");
+        assert_eq!(
+            block_v[i].to_bits(),
+            v.to_bits(),
+            "{name} at {p}: block value"
+        );
+        assert_eq!(block_g[i], vg, "{name} at {p}: block gradient");
         let fd = central(&mut |q| reference(q), p, h);
         let floor = GRAD_TOL * (want.abs() / size + 1.0);
         let err = (vg.gradient - fd).abs().max_element();
@@ -96,6 +111,20 @@ fn check_surface(
             "{name} at {p}: gradient {} vs central differences {fd}",
             vg.gradient
         );
+    }
+}
+
+/// The batch paths of a surface without `dist` children ran as native code (on the hosts
+/// Cranelift supports); one with children fell back to the block interpreter, saying why.
+fn assert_native_unless_children(name: &str, surface: &CompiledSurface) {
+    let error = surface.native_error();
+    if surface.tape().children() > 0 {
+        assert!(
+            matches!(error, Some(NativeError::UnsupportedTape)),
+            "{name}: {error:?}"
+        );
+    } else if cfg!(any(target_arch = "x86_64", target_arch = "aarch64")) {
+        assert!(error.is_none(), "{name}: no native code: {error:?}");
     }
 }
 
@@ -398,32 +427,54 @@ fn every_opcode_matches_its_reference_on_edge_inputs() {
             };
             points.len()
         ];
-        vm.value_batch(&points, &mut batch_v);
-        vm.value_grad_batch(&points, &mut batch_g);
-        for (i, p) in points.iter().enumerate() {
-            let want = reference(p.x, p.y);
-            let v = vm.value(&[p.x, p.y, p.z]);
-            let g = vm.value_grad(&[p.x, p.y, p.z]);
-            assert!(same(v, want), "{} {p}: {v} vs {want}", op.name());
-            assert!(
-                same(g.v, want),
-                "{} {p}: dual value {} vs {want}",
-                op.name(),
-                g.v
-            );
-            assert!(same(batch_v[i], want), "{} {p}: batch value", op.name());
-            let bg = batch_g[i];
-            assert!(same(bg.value, g.v), "{} {p}: batch dual value", op.name());
-            for (x, y) in [
-                (bg.gradient.x, g.dx),
-                (bg.gradient.y, g.dy),
-                (bg.gradient.z, g.dz),
-            ] {
+        for engine in [Engine::Native, Engine::Blocks] {
+            vm.set_engine(engine);
+            vm.value_batch(&points, &mut batch_v);
+            vm.value_grad_batch(&points, &mut batch_g);
+            if engine == Engine::Native
+                && op != Op::Dist
+                && cfg!(any(target_arch = "x86_64", target_arch = "aarch64"))
+            {
                 assert!(
-                    same_partial(x, y),
-                    "{} {p}: batch gradient {bg:?} vs {g:?}",
+                    vm.native_error().is_none(),
+                    "{}: {:?}",
+                    op.name(),
+                    vm.native_error()
+                );
+            }
+            for (i, p) in points.iter().enumerate() {
+                let want = reference(p.x, p.y);
+                let v = vm.value(&[p.x, p.y, p.z]);
+                let g = vm.value_grad(&[p.x, p.y, p.z]);
+                assert!(same(v, want), "{} {p}: {v} vs {want}", op.name());
+                assert!(
+                    same(g.v, want),
+                    "{} {p}: dual value {} vs {want}",
+                    op.name(),
+                    g.v
+                );
+                assert!(
+                    same(batch_v[i], want),
+                    "{} {engine:?} {p}: batch value",
                     op.name()
                 );
+                let bg = batch_g[i];
+                assert!(
+                    same(bg.value, g.v),
+                    "{} {engine:?} {p}: batch dual value",
+                    op.name()
+                );
+                for (x, y) in [
+                    (bg.gradient.x, g.dx),
+                    (bg.gradient.y, g.dy),
+                    (bg.gradient.z, g.dz),
+                ] {
+                    assert!(
+                        same_partial(x, y),
+                        "{} {engine:?} {p}: batch gradient {bg:?} vs {g:?}",
+                        op.name()
+                    );
+                }
             }
         }
     }
@@ -559,4 +610,45 @@ fn every_gallery_surface_matches_reference_and_finite_differences() {
         "{checked} surfaces in {} files",
         files.len()
     );
+}
+
+/// Batches of every length up to a few pairs (the native code runs pairs of points and pads
+/// an odd last one), with the output shorter or longer than the points: each result is the
+/// single-point one, and nothing past the shorter length is written.
+#[test]
+fn batches_of_any_length_match_single_points() {
+    let p = program(GENUS3);
+    let mut s = compile_named(&p, "genus3");
+    let mut rng = Rng::new(7);
+    let (lo, hi) = (DVec3::new(-6.5, -4.0, -2.0), DVec3::new(6.5, 4.0, 2.0));
+    let points: Vec<DVec3> = (0..9).map(|_| rng.point(lo, hi)).collect();
+    let untouched = ValueGrad {
+        value: 12345.0,
+        gradient: DVec3::splat(-1.0),
+    };
+    for engine in [Engine::Native, Engine::Blocks] {
+        s.set_engine(engine);
+        for n in 0..=points.len() {
+            for m in [n.saturating_sub(1), n, n + 2] {
+                let mut values = vec![untouched.value; m];
+                let mut grads = vec![untouched; m];
+                s.value_batch(&points[..n], &mut values);
+                s.value_gradient_batch(&points[..n], &mut grads);
+                for i in 0..m {
+                    let (want_v, want_g) = if i < n {
+                        (s.value(points[i]), s.value_gradient(points[i]))
+                    } else {
+                        (untouched.value, untouched)
+                    };
+                    assert_eq!(
+                        values[i].to_bits(),
+                        want_v.to_bits(),
+                        "{engine:?} {n} {m} {i}"
+                    );
+                    assert_eq!(grads[i], want_g, "{engine:?} {n} {m} {i}");
+                }
+            }
+        }
+    }
+    assert_native_unless_children("genus3", &s);
 }

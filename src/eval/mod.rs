@@ -9,8 +9,11 @@
 //! only the partials that can be non-zero (per-instruction masks). While a block computes,
 //! the next block's points and output slots are hinted into the cache a few lines per
 //! instruction, so the memory streams overlap the arithmetic. `dist` instructions call the
-//! tape's child surfaces. `docs/compiler.md` has the measurements behind these choices.
+//! tape's child surfaces. By default the batch paths run the tape's native code instead
+//! ([`native`], compiled at the first batch call); the block loops are the second [`Engine`]
+//! and the fallback. `docs/compiler.md` has the measurements behind these choices.
 
+pub mod native;
 pub mod ops;
 
 use glam::DVec3;
@@ -121,6 +124,29 @@ pub struct Vm {
     masks: Vec<[u8; 3]>,
     /// The same for the first output register.
     output_mask: u8,
+    /// Which engine runs the batch paths.
+    engine: Engine,
+    /// The tape's native code, compiled at the first batch call that wants it.
+    native: Native,
+}
+
+/// The engine of the batch paths ([`Vm::value_batch`], [`Vm::value_grad_batch`]). Both give
+/// the same values bit for bit and the same partials up to the sign of zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Engine {
+    /// The tape compiled to native code (`native.rs`), where it can be; else `Blocks`.
+    #[default]
+    Native,
+    /// The interpreter's block loops.
+    Blocks,
+}
+
+/// The state of a VM's native code.
+#[derive(Debug)]
+enum Native {
+    NotTried,
+    Ready(Box<native::NativeTape>),
+    Unavailable(native::NativeError),
 }
 
 /// Which partials of each instruction's output and operands can be non-zero: an input has its
@@ -286,11 +312,45 @@ impl Vm {
             simd: Simd::detect(),
             masks,
             output_mask,
+            engine: Engine::default(),
+            native: Native::NotTried,
         })
     }
 
     pub fn tape(&self) -> &Tape {
         &self.tape
+    }
+
+    /// Chooses the engine of the batch paths.
+    pub fn set_engine(&mut self, engine: Engine) {
+        self.engine = engine;
+    }
+
+    /// The native code of the batch paths, compiled at the first call; None if the engine is
+    /// `Blocks` or the tape cannot have native code ([`Vm::native_error`] says why).
+    fn native(&mut self) -> Option<&native::NativeTape> {
+        if self.engine != Engine::Native {
+            return None;
+        }
+        if let Native::NotTried = self.native {
+            self.native = match native::NativeTape::new(&self.tape) {
+                Ok(code) => Native::Ready(Box::new(code)),
+                Err(e) => Native::Unavailable(e),
+            };
+        }
+        match &self.native {
+            Native::Ready(code) => Some(code),
+            _ => None,
+        }
+    }
+
+    /// Why the batch paths run on the block interpreter although the engine is `Native`, once
+    /// a batch call has tried to compile the tape.
+    pub fn native_error(&self) -> Option<&native::NativeError> {
+        match &self.native {
+            Native::Unavailable(e) => Some(e),
+            _ => None,
+        }
     }
 
     fn run_values(&mut self, inputs: &[f64]) {
@@ -386,6 +446,10 @@ impl Vm {
     /// f at each point of a surface tape: `out[i] = f(points[i])` for i below the shorter
     /// length.
     pub fn value_batch(&mut self, points: &[DVec3], out: &mut [f64]) {
+        if let Some(code) = self.native() {
+            code.values(points, out);
+            return;
+        }
         self.init_lanes();
         let output = self.tape.outputs()[0].index();
         let (points_addr, out_addr, out_len) = (points.as_ptr(), out.as_ptr(), out.len());
@@ -427,6 +491,10 @@ impl Vm {
 
     /// f and ∇f at each point of a surface tape, for i below the shorter length.
     pub fn value_grad_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) {
+        if let Some(code) = self.native() {
+            code.value_grads(points, out);
+            return;
+        }
         self.init_lanes();
         let output = self.tape.outputs()[0].index();
         // Addresses only (never dereferenced), for the prefetch hints.
@@ -477,7 +545,7 @@ impl Vm {
             let r = &mut regs[output];
             r.zero_partials_outside(self.output_mask);
             let lanes = r.v.iter().zip(&r.dx).zip(&r.dy).zip(&r.dz);
-            for (slot, (((&v, &dx), &dy), &dz)) in outs.iter_mut().zip(lanes) {
+            for (slot, (((&v, &dx), &dy), &dz)) in outs[..n].iter_mut().zip(lanes) {
                 *slot = ValueGrad {
                     value: v,
                     gradient: DVec3::new(dx, dy, dz),

@@ -5,7 +5,8 @@ use glam::DVec3;
 
 use super::{Patch, PatchJet, Surface, ValueGrad};
 use crate::compile::tape::Tape;
-use crate::eval::{Grad, Vm, VmError};
+use crate::eval::native::NativeError;
+use crate::eval::{Engine, Grad, Vm, VmError};
 
 /// An implicit surface f(x, y, z) = 0 evaluated from its tape.
 #[derive(Debug)]
@@ -23,6 +24,17 @@ impl CompiledSurface {
 
     pub fn tape(&self) -> &Tape {
         self.vm.tape()
+    }
+
+    /// Chooses the engine of the batch paths (native code by default).
+    pub fn set_engine(&mut self, engine: Engine) {
+        self.vm.set_engine(engine);
+    }
+
+    /// Why the batch paths run on the block interpreter although native code was asked for
+    /// (known after the first batch call).
+    pub fn native_error(&self) -> Option<&NativeError> {
+        self.vm.native_error()
     }
 
     /// f at each point: `out[i] = f(points[i])` for i below the shorter length.

@@ -1,0 +1,583 @@
+//! Native code for a surface tape's batch evaluation: the tape is translated, once, into a
+//! Cranelift function that runs the whole tape for two points at a time with every register
+//! held in a two-lane vector (f64x2), so a point's intermediates stay in CPU registers instead
+//! of streaming through the VM's register blocks. One function computes values, another
+//! values and gradients.
+//!
+//! The translation is a partial evaluation of the batch VM's arithmetic: each register is
+//! either a constant known at translation time or a vector, and each partial derivative
+//! either a constant (0 where the VM's masks say structurally zero) or a vector. Operations
+//! on constants are folded with `ops::value`; the others are emitted with exactly the VM's
+//! formulas, so the results are the batch VM's bit for bit in the values and up to the sign
+//! of zero in the partials (the dual-number rules of `ops` are the reference for both).
+//! Opcodes without a vector form here (the elementary functions, `pow`, `atan2`, `hypot`)
+//! call back into `ops` for each pair of points. Tapes with `dist` children, or without
+//! three inputs, stay on the VM, as does any host Cranelift cannot compile for.
+
+use std::collections::HashMap;
+
+use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
+use cranelift_codegen::ir::types::{F64, F64X2, I32};
+use cranelift_codegen::ir::{
+    AbiParam, Function, InstBuilder, MemFlagsData, SigRef, Signature, StackSlot, StackSlotData,
+    StackSlotKind, Value,
+};
+use cranelift_codegen::settings::{self, Configurable};
+use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
+use cranelift_jit::{JITBuilder, JITModule};
+use cranelift_module::{FuncId, Linkage, Module, ModuleError};
+use glam::DVec3;
+
+use super::ops::{self, Grad};
+use crate::compile::tape::{Arity, Op, Tape};
+use crate::surface::ValueGrad;
+
+/// Why a tape has no native code (the VM evaluates it instead).
+#[derive(Debug, thiserror::Error)]
+pub enum NativeError {
+    #[error("native code is for surface tapes with three inputs and no `dist` children")]
+    UnsupportedTape,
+    #[error("Cranelift does not support this machine: {0}")]
+    UnsupportedHost(String),
+    #[error("Cranelift could not compile the tape: {0}")]
+    Codegen(String),
+}
+
+impl From<ModuleError> for NativeError {
+    fn from(e: ModuleError) -> Self {
+        NativeError::Codegen(e.to_string())
+    }
+}
+
+/// Points a vector: f64x2.
+const WIDTH: usize = 2;
+
+/// `fn(points, out, pairs)`: `pairs` pairs of points in, one result a point out.
+type BatchFn<T> = unsafe extern "C" fn(*const DVec3, *mut T, usize);
+
+/// A tape compiled to native code: values, and values with gradients, over a batch.
+pub struct NativeTape {
+    /// Owns the executable memory of both functions; freed on drop.
+    module: Option<JITModule>,
+    values: BatchFn<f64>,
+    value_grads: BatchFn<ValueGrad>,
+}
+
+impl std::fmt::Debug for NativeTape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NativeTape").finish_non_exhaustive()
+    }
+}
+
+impl Drop for NativeTape {
+    fn drop(&mut self) {
+        if let Some(module) = self.module.take() {
+            // SAFETY: the only pointers into the module's memory are `values` and
+            // `value_grads`, which die with `self`.
+            unsafe { module.free_memory() };
+        }
+    }
+}
+
+// The generated code stores a `ValueGrad` as four f64s: value, ∂x, ∂y, ∂z.
+const _: () = {
+    assert!(std::mem::size_of::<ValueGrad>() == 32);
+    assert!(std::mem::offset_of!(ValueGrad, value) == 0);
+    assert!(std::mem::offset_of!(ValueGrad, gradient) == 8);
+    assert!(std::mem::size_of::<DVec3>() == 24);
+};
+
+impl NativeTape {
+    /// Compiles `tape` for this machine.
+    pub fn new(tape: &Tape) -> Result<NativeTape, NativeError> {
+        if tape.inputs() != 3 || tape.children() != 0 || tape.outputs().is_empty() {
+            return Err(NativeError::UnsupportedTape);
+        }
+        let mut flags = settings::builder();
+        let mut set = |name: &str, value: &str| {
+            flags
+                .set(name, value)
+                .map_err(|e| NativeError::Codegen(e.to_string()))
+        };
+        set("opt_level", "speed")?;
+        set("use_colocated_libcalls", "false")?;
+        set("is_pic", "false")?;
+        let isa = cranelift_native::builder()
+            .map_err(|e| NativeError::UnsupportedHost(e.to_string()))?
+            .finish(settings::Flags::new(flags))
+            .map_err(|e| NativeError::Codegen(e.to_string()))?;
+        let mut module = JITModule::new(JITBuilder::with_isa(
+            isa,
+            cranelift_module::default_libcall_names(),
+        ));
+        let built = (|| {
+            let values = define(&mut module, tape, false)?;
+            let grads = define(&mut module, tape, true)?;
+            module.finalize_definitions()?;
+            Ok::<_, NativeError>((values, grads))
+        })();
+        let (values, grads) = match built {
+            Ok(ids) => ids,
+            Err(e) => {
+                // SAFETY: nothing points into the module's memory yet.
+                unsafe { module.free_memory() };
+                return Err(e);
+            }
+        };
+        // SAFETY: both functions were defined with the signature `BatchFn` describes
+        // (pointer, pointer, pointer-sized integer; the host's C calling convention).
+        let (values, value_grads) = unsafe {
+            (
+                std::mem::transmute::<*const u8, BatchFn<f64>>(
+                    module.get_finalized_function(values),
+                ),
+                std::mem::transmute::<*const u8, BatchFn<ValueGrad>>(
+                    module.get_finalized_function(grads),
+                ),
+            )
+        };
+        Ok(NativeTape {
+            module: Some(module),
+            values,
+            value_grads,
+        })
+    }
+
+    /// f at each point: `out[i] = f(points[i])` for i below the shorter length.
+    pub fn values(&self, points: &[DVec3], out: &mut [f64]) {
+        run(self.values, points, out);
+    }
+
+    /// f and ∇f at each point, for i below the shorter length.
+    pub fn value_grads(&self, points: &[DVec3], out: &mut [ValueGrad]) {
+        run(self.value_grads, points, out);
+    }
+}
+
+/// Runs `f` over the whole pairs of points, then over the odd last point padded to a pair.
+fn run<T: Copy>(f: BatchFn<T>, points: &[DVec3], out: &mut [T]) {
+    let n = points.len().min(out.len());
+    let pairs = n / WIDTH;
+    // SAFETY: `f` reads 2·pairs points and writes 2·pairs results, all within the slices.
+    unsafe { f(points.as_ptr(), out.as_mut_ptr(), pairs) };
+    if n % WIDTH == 1 {
+        let last = n - 1;
+        let pad = [points[last]; WIDTH];
+        let mut slot = [out[last]; WIDTH];
+        // SAFETY: one pair in, one pair out, both local arrays.
+        unsafe { f(pad.as_ptr(), slot.as_mut_ptr(), 1) };
+        out[last] = slot[0];
+    }
+}
+
+/// Defines the batch function of `tape`: values only, or values and gradients.
+fn define(module: &mut JITModule, tape: &Tape, gradients: bool) -> Result<FuncId, NativeError> {
+    let pointer = module.target_config().pointer_type();
+    let mut sig = module.make_signature();
+    sig.params.extend([
+        AbiParam::new(pointer),
+        AbiParam::new(pointer),
+        AbiParam::new(pointer),
+    ]);
+    let name = if gradients { "value_grads" } else { "values" };
+    let id = module.declare_function(name, Linkage::Local, &sig)?;
+    let mut ctx = module.make_context();
+    ctx.func = Function::with_name_signature(Default::default(), sig.clone());
+    let mut builder_ctx = FunctionBuilderContext::new();
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, &mut builder_ctx);
+        let entry = b.create_block();
+        let header = b.create_block();
+        let body = b.create_block();
+        let exit = b.create_block();
+        b.append_block_params_for_function_params(entry);
+        b.switch_to_block(entry);
+        let params = b.block_params(entry).to_vec();
+        let (points, out, pairs) = (params[0], params[1], params[2]);
+        let i = b.declare_var(pointer);
+        let zero = b.ins().iconst(pointer, 0);
+        b.def_var(i, zero);
+        b.ins().jump(header, &[]);
+
+        b.switch_to_block(header);
+        let at = b.use_var(i);
+        let more = b.ins().icmp(IntCC::UnsignedLessThan, at, pairs);
+        b.ins().brif(more, body, &[], exit, &[]);
+
+        b.switch_to_block(body);
+        let mut e = Emitter::new(&mut b, pointer, tape, gradients);
+        e.pair(points, out, at);
+        let next = b.ins().iadd_imm_u(at, 1);
+        b.def_var(i, next);
+        b.ins().jump(header, &[]);
+
+        b.switch_to_block(exit);
+        b.ins().return_(&[]);
+        b.seal_all_blocks();
+        b.finalize(module.target_config());
+    }
+    module.define_function(id, &mut ctx)?;
+    module.clear_context(&mut ctx);
+    Ok(id)
+}
+
+/// A register's value, or a partial, for both lanes: known at translation time, or computed.
+#[derive(Clone, Copy, Debug)]
+enum Lanes {
+    Const(f64),
+    Vector(Value),
+}
+
+use Lanes::{Const, Vector};
+
+/// Structurally zero: the VM's masks leave such a partial out.
+const ZERO: Lanes = Const(0.0);
+
+impl Lanes {
+    fn is_zero(self) -> bool {
+        matches!(self, Const(c) if c == 0.0)
+    }
+}
+
+/// A register: value and the partials by x, y, z.
+#[derive(Clone, Copy, Debug)]
+struct Dual {
+    v: Lanes,
+    d: [Lanes; 3],
+}
+
+/// Emits one pair of points' evaluation into the current block.
+struct Emitter<'a, 'b> {
+    b: &'a mut FunctionBuilder<'b>,
+    pointer: cranelift_codegen::ir::Type,
+    tape: &'a Tape,
+    gradients: bool,
+    /// Splatted constants, by bit pattern (emitted once in the block).
+    splats: HashMap<u64, Value>,
+    /// The scratch memory and the signature of the calls back into `ops`, made at the first.
+    scratch: Option<(StackSlot, SigRef)>,
+}
+
+/// Scratch layout of a call back into `ops`: operand a, operand b, the result; each four
+/// components (value, ∂x, ∂y, ∂z) of two lanes.
+const SCRATCH_DUALS: usize = 3;
+const DUAL_BYTES: i32 = 4 * 16;
+
+impl<'a, 'b> Emitter<'a, 'b> {
+    fn new(
+        b: &'a mut FunctionBuilder<'b>,
+        pointer: cranelift_codegen::ir::Type,
+        tape: &'a Tape,
+        gradients: bool,
+    ) -> Self {
+        Emitter {
+            b,
+            pointer,
+            tape,
+            gradients,
+            splats: HashMap::new(),
+            scratch: None,
+        }
+    }
+
+    /// Loads pair `at` of `points`, runs the tape, stores the pair's results into `out`.
+    fn pair(&mut self, points: Value, out: Value, at: Value) {
+        let flags = MemFlagsData::trusted();
+        let base = self.b.ins().imul_imm_u(at, (WIDTH * 24) as i64);
+        let base = self.b.ins().iadd(points, base);
+        let mut inputs = [ZERO; 3];
+        for (axis, input) in inputs.iter_mut().enumerate() {
+            let lane0 = self.b.ins().load(F64, flags, base, (axis * 8) as i32);
+            let lane1 = self.b.ins().load(F64, flags, base, (24 + axis * 8) as i32);
+            let v = self.b.ins().splat(F64X2, lane0);
+            *input = Vector(self.b.ins().insertlane(v, lane1, 1));
+        }
+        let mut regs: Vec<Dual> = vec![
+            Dual {
+                v: ZERO,
+                d: [ZERO; 3]
+            };
+            self.tape.registers()
+        ];
+        for (axis, input) in inputs.into_iter().enumerate() {
+            let mut d = [ZERO; 3];
+            if self.gradients {
+                d[axis] = Const(1.0);
+            }
+            regs[axis] = Dual { v: input, d };
+        }
+        for (k, &c) in self.tape.constants().iter().enumerate() {
+            regs[self.tape.inputs() + k] = Dual {
+                v: Const(c),
+                d: [ZERO; 3],
+            };
+        }
+        for ins in self.tape.instrs() {
+            let a = regs[ins.a.index()];
+            let b = match ins.op.arity() {
+                Arity::Binary => regs[ins.b.index()],
+                _ => Dual::value(ZERO),
+            };
+            let r = if self.gradients {
+                self.grad(ins.op, a, b)
+            } else {
+                Dual {
+                    v: self.value(ins.op, a.v, b.v),
+                    d: [ZERO; 3],
+                }
+            };
+            regs[ins.out.index()] = r;
+        }
+        let result = regs[self.tape.outputs()[0].index()];
+        if self.gradients {
+            let base = self.b.ins().imul_imm_u(at, (WIDTH * 32) as i64);
+            let base = self.b.ins().iadd(out, base);
+            let parts = [result.v, result.d[0], result.d[1], result.d[2]];
+            for (c, part) in parts.into_iter().enumerate() {
+                let part = self.vector(part);
+                for lane in 0..WIDTH {
+                    let x = self.b.ins().extractlane(part, lane as u8);
+                    self.b
+                        .ins()
+                        .store(flags, x, base, (lane * 32 + c * 8) as i32);
+                }
+            }
+        } else {
+            let base = self.b.ins().imul_imm_u(at, (WIDTH * 8) as i64);
+            let base = self.b.ins().iadd(out, base);
+            let v = self.vector(result.v);
+            self.b.ins().store(flags, v, base, 0);
+        }
+    }
+
+    /// The lanes as a vector.
+    fn vector(&mut self, x: Lanes) -> Value {
+        match x {
+            Vector(v) => v,
+            Const(c) => *self.splats.entry(c.to_bits()).or_insert_with(|| {
+                let s = self.b.ins().f64const(c);
+                self.b.ins().splat(F64X2, s)
+            }),
+        }
+    }
+
+    /// `op a, b` on values: folded when both are known, inline for the arithmetic, through
+    /// `ops::value` otherwise.
+    fn value(&mut self, op: Op, a: Lanes, b: Lanes) -> Lanes {
+        let unary = op.arity() == Arity::Unary;
+        if let (Const(x), Const(y)) = (a, b) {
+            return Const(ops::value(op, x, y));
+        }
+        if let (true, Const(x)) = (unary, a) {
+            return Const(ops::value(op, x, 0.0));
+        }
+        let va = self.vector(a);
+        let vb = if unary { va } else { self.vector(b) };
+        Vector(match op {
+            Op::Neg => self.b.ins().fneg(va),
+            Op::Square => self.b.ins().fmul(va, va),
+            Op::Sqrt => self.b.ins().sqrt(va),
+            Op::Abs => self.b.ins().fabs(va),
+            Op::Add => self.b.ins().fadd(va, vb),
+            Op::Sub => self.b.ins().fsub(va, vb),
+            Op::Mul => self.b.ins().fmul(va, vb),
+            Op::Div => self.b.ins().fdiv(va, vb),
+            Op::Recip => {
+                let one = self.vector(Const(1.0));
+                self.b.ins().fdiv(one, va)
+            }
+            Op::Min | Op::Max => {
+                // ops::min_value: NaN if either is; else b where b < a (b > a for max),
+                // else a.
+                let cc = if op == Op::Min {
+                    FloatCC::LessThan
+                } else {
+                    FloatCC::GreaterThan
+                };
+                let pick_b = self.mask(cc, vb, va);
+                let chosen = self.b.ins().bitselect(pick_b, vb, va);
+                let nan = self.mask(FloatCC::Unordered, va, vb);
+                let nan_value = self.vector(Const(f64::NAN));
+                self.b.ins().bitselect(nan, nan_value, chosen)
+            }
+            _ => return self.call_back(op, Dual::value(a), Dual::value(b), false).v,
+        })
+    }
+
+    /// A lane mask (all ones where `x cc y`) typed as f64x2 for `bitselect` and `band`.
+    fn mask(&mut self, cc: FloatCC, x: Value, y: Value) -> Value {
+        let m = self.b.ins().fcmp(cc, x, y);
+        self.b.ins().bitcast(F64X2, MemFlagsData::new(), m)
+    }
+
+    /// `ops::term`: k·d, where a zero d gives 0 whatever k is (also ∞ or NaN).
+    fn term(&mut self, k: Lanes, d: Lanes) -> Lanes {
+        if d.is_zero() {
+            return ZERO;
+        }
+        // A non-zero constant d: k·d is the term. A finite constant k: k·d differs from the
+        // term at most in the sign of a zero.
+        if matches!(d, Const(_)) || matches!(k, Const(c) if c.is_finite()) {
+            return self.value(Op::Mul, k, d);
+        }
+        let p = self.value(Op::Mul, k, d);
+        let (p, d) = (self.vector(p), self.vector(d));
+        let zero = self.vector(ZERO);
+        let keep = self.mask(FloatCC::NotEqual, d, zero);
+        Vector(self.b.ins().band(p, keep))
+    }
+
+    /// `op a, b` on dual numbers, with the batch VM's sparse rules for the arithmetic and
+    /// `ops::grad` (dense) for the rest.
+    fn grad(&mut self, op: Op, a: Dual, b: Dual) -> Dual {
+        let binary = op.arity() == Arity::Binary;
+        let sparse = matches!(
+            op,
+            Op::Add | Op::Sub | Op::Mul | Op::Div | Op::Neg | Op::Square
+        );
+        if !sparse {
+            return self.call_back(op, a, b, true);
+        }
+        let v = self.value(op, a.v, b.v);
+        let mut d = [ZERO; 3];
+        for (k, out) in d.iter_mut().enumerate() {
+            let (ad, bd) = (a.d[k], if binary { b.d[k] } else { ZERO });
+            let (ha, hb) = (!ad.is_zero(), !bd.is_zero());
+            *out = match (op, ha, hb) {
+                (_, false, false) => ZERO,
+                (Op::Add, true, true) => self.value(Op::Add, ad, bd),
+                (Op::Add | Op::Sub, true, false) => ad,
+                (Op::Add, false, true) => bd,
+                (Op::Sub, true, true) => self.value(Op::Sub, ad, bd),
+                (Op::Sub, false, true) => self.value(Op::Neg, bd, bd),
+                (Op::Mul, _, _) => {
+                    let ta = if ha { self.term(b.v, ad) } else { ZERO };
+                    let tb = if hb { self.term(a.v, bd) } else { ZERO };
+                    self.sum(ha, ta, hb, tb)
+                }
+                (Op::Div, _, _) => {
+                    let r = self.value(Op::Div, Const(1.0), b.v);
+                    let ta = if ha { self.term(r, ad) } else { ZERO };
+                    let tb = if hb {
+                        let nv = self.value(Op::Neg, v, v);
+                        let k = self.value(Op::Mul, nv, r);
+                        self.term(k, bd)
+                    } else {
+                        ZERO
+                    };
+                    self.sum(ha, ta, hb, tb)
+                }
+                (Op::Neg, _, _) => self.value(Op::Neg, ad, ad),
+                (Op::Square, _, _) => {
+                    let twice = self.value(Op::Mul, Const(2.0), a.v);
+                    self.term(twice, ad)
+                }
+                _ => ZERO,
+            };
+        }
+        Dual { v, d }
+    }
+
+    /// The VM's `x + y` of two terms, or the one term present.
+    fn sum(&mut self, hx: bool, x: Lanes, hy: bool, y: Lanes) -> Lanes {
+        match (hx, hy) {
+            (true, true) => self.value(Op::Add, x, y),
+            (true, false) => x,
+            _ => y,
+        }
+    }
+
+    /// `op a, b` through `ops` for each lane: `ops::grad` when computing gradients, else
+    /// `ops::value`. Partials that are zero in both operands stay zero (a dense rule gives
+    /// k·0 + m·0 = 0 there).
+    fn call_back(&mut self, op: Op, a: Dual, b: Dual, gradients: bool) -> Dual {
+        let (slot, sig) = match self.scratch {
+            Some(made) => made,
+            None => {
+                let bytes = SCRATCH_DUALS as u32 * DUAL_BYTES as u32;
+                let slot = self.b.create_sized_stack_slot(StackSlotData::new(
+                    StackSlotKind::ExplicitSlot,
+                    bytes,
+                    4,
+                ));
+                let mut sig = Signature::new(self.b.func.signature.call_conv);
+                sig.params
+                    .extend([AbiParam::new(I32), AbiParam::new(self.pointer)]);
+                let sig = self.b.import_signature(sig);
+                self.scratch = Some((slot, sig));
+                (slot, sig)
+            }
+        };
+        let parts = if gradients { 4 } else { 1 };
+        for (n, dual) in [a, b].into_iter().enumerate() {
+            let components = [dual.v, dual.d[0], dual.d[1], dual.d[2]];
+            for (c, x) in components.into_iter().take(parts).enumerate() {
+                let x = self.vector(x);
+                let offset = n as i32 * DUAL_BYTES + c as i32 * 16;
+                self.b.ins().stack_store(self.pointer, x, slot, offset);
+            }
+        }
+        let callee: extern "C" fn(u32, *mut Scratch) =
+            if gradients { grad_call } else { value_call };
+        let callee = self.b.ins().iconst(self.pointer, callee as usize as i64);
+        let code = Op::ALL.iter().position(|&o| o == op).unwrap_or(usize::MAX) as i64;
+        let code = self.b.ins().iconst(I32, code);
+        let addr = self.b.ins().stack_addr(self.pointer, slot, 0);
+        self.b.ins().call_indirect(sig, callee, &[code, addr]);
+        let mut load = |c: usize| {
+            let offset = 2 * DUAL_BYTES + c as i32 * 16;
+            Vector(self.b.ins().stack_load(self.pointer, F64X2, slot, offset))
+        };
+        let v = load(0);
+        let mut d = [ZERO; 3];
+        if gradients {
+            for (k, dk) in d.iter_mut().enumerate() {
+                if !(a.d[k].is_zero() && b.d[k].is_zero()) {
+                    *dk = load(k + 1);
+                }
+            }
+        }
+        Dual { v, d }
+    }
+}
+
+impl Dual {
+    fn value(v: Lanes) -> Dual {
+        Dual { v, d: [ZERO; 3] }
+    }
+}
+
+/// The scratch of a call back: `[a, b, out]`, each `[v, ∂x, ∂y, ∂z]` of two lanes.
+type Scratch = [f64; 24];
+
+fn lane_dual(s: &Scratch, n: usize, lane: usize) -> Grad {
+    let at = |c: usize| s[n * 8 + c * 2 + lane];
+    Grad::new(at(0), at(1), at(2), at(3))
+}
+
+fn op_of(code: u32) -> Op {
+    Op::ALL.get(code as usize).copied().unwrap_or(Op::Dist)
+}
+
+/// `ops::value` for both lanes of a call back.
+extern "C" fn value_call(code: u32, scratch: *mut Scratch) {
+    // SAFETY: the generated code passes its own 16-aligned scratch slot of 24 f64s.
+    let s = unsafe { &mut *scratch };
+    let op = op_of(code);
+    for lane in 0..WIDTH {
+        s[16 + lane] = ops::value(op, s[lane], s[8 + lane]);
+    }
+}
+
+/// `ops::grad` for both lanes of a call back.
+extern "C" fn grad_call(code: u32, scratch: *mut Scratch) {
+    // SAFETY: as in `value_call`.
+    let s = unsafe { &mut *scratch };
+    let op = op_of(code);
+    for lane in 0..WIDTH {
+        let g = ops::grad(op, lane_dual(s, 0, lane), lane_dual(s, 1, lane));
+        for (c, x) in [g.v, g.dx, g.dy, g.dz].into_iter().enumerate() {
+            s[16 + c * 2 + lane] = x;
+        }
+    }
+}
