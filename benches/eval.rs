@@ -1,9 +1,9 @@
-//! Bytecode against native Rust: value, and value + gradient, over a batch of points in the
-//! model's box, for the genus-3 surface (paper Sect. 3.5) and the G2 blend of three cylinders
-//! (Sect. 3.10). The native versions are the same formulas written in Rust with hand-derived
-//! gradients. "bytecode" is the default batch engine (the tape translated to native code),
-//! "blocks" the block interpreter; also the single-point path the marcher uses (one
-//! `value_gradient` call a point), and the time to translate a tape to native code.
+//! Compiled tapes against native Rust: value, and value + gradient, over a batch of points in
+//! the model's box, for the genus-3 surface (paper Sect. 3.5) and the G2 blend of three
+//! cylinders (Sect. 3.10). `rust` is the same formula written in Rust with hand-derived
+//! gradients; `jit` the tape as native code (the default engine), `interpreter` the bytecode
+//! interpreter. Also the single-point path the marcher uses (one `value_gradient` call a
+//! point), and the time to translate a tape to native code (`compile_jit`).
 //!
 //! `cargo bench --bench eval -- --warm-up-time 1 --measurement-time 3`
 
@@ -137,58 +137,59 @@ fn bench_surface<V, G>(
         gradient: DVec3::ZERO,
     };
     let mut grads = vec![zero; POINTS];
-    // The two agree before they race.
-    surface.value_gradient_batch(&pts[..1000], &mut grads[..1000]);
-    for (p, g) in pts.iter().zip(&grads[..1000]) {
-        let n = grad(*p);
-        let tol = 1e-9 * (1.0 + n.value.abs() + n.gradient.abs().max_element());
-        assert!(
-            (n.value - g.value).abs() <= tol
-                && (n.gradient - g.gradient).abs().max_element() <= tol
-        );
-        assert!((value(*p) - n.value).abs() <= tol);
+    // They agree before they race.
+    for engine in [Engine::Native, Engine::Interpreter] {
+        surface.set_engine(engine);
+        surface.value_gradient_batch(&pts[..1000], &mut grads[..1000]);
+        for (p, g) in pts.iter().zip(&grads[..1000]) {
+            let n = grad(*p);
+            let tol = 1e-9 * (1.0 + n.value.abs() + n.gradient.abs().max_element());
+            assert!(
+                (n.value - g.value).abs() <= tol
+                    && (n.gradient - g.gradient).abs().max_element() <= tol
+            );
+            assert!((value(*p) - n.value).abs() <= tol);
+        }
     }
 
     let mut group = c.benchmark_group(name);
     group.throughput(Throughput::Elements(POINTS as u64));
     group.sample_size(10);
-    group.bench_function("value/bytecode", |b| {
-        b.iter(|| surface.value_batch(black_box(&pts), &mut values))
-    });
-    group.bench_function("value/native", |b| {
+    group.bench_function("value/rust", |b| {
         b.iter(|| {
             for (o, p) in values.iter_mut().zip(black_box(&pts)) {
                 *o = value(*p);
             }
         })
     });
-    group.bench_function("value_gradient/bytecode", |b| {
-        b.iter(|| surface.value_gradient_batch(black_box(&pts), &mut grads))
-    });
-    group.bench_function("value_gradient/native", |b| {
+    group.bench_function("value_gradient/rust", |b| {
         b.iter(|| {
             for (o, p) in grads.iter_mut().zip(black_box(&pts)) {
                 *o = grad(*p);
             }
         })
     });
-    surface.set_engine(Engine::Blocks);
-    group.bench_function("value/blocks", |b| {
-        b.iter(|| surface.value_batch(black_box(&pts), &mut values))
-    });
-    group.bench_function("value_gradient/blocks", |b| {
-        b.iter(|| surface.value_gradient_batch(black_box(&pts), &mut grads))
-    });
-    surface.set_engine(Engine::Native);
-    group.bench_function("compile_native", |b| {
+    for (engine, label) in [
+        (Engine::Native, "jit"),
+        (Engine::Interpreter, "interpreter"),
+    ] {
+        surface.set_engine(engine);
+        group.bench_function(format!("value/{label}"), |b| {
+            b.iter(|| surface.value_batch(black_box(&pts), &mut values))
+        });
+        group.bench_function(format!("value_gradient/{label}"), |b| {
+            b.iter(|| surface.value_gradient_batch(black_box(&pts), &mut grads))
+        });
+        group.bench_function(format!("value_gradient_single/{label}"), |b| {
+            b.iter(|| {
+                for (o, p) in grads.iter_mut().zip(black_box(&pts)) {
+                    *o = surface.value_gradient(*p);
+                }
+            })
+        });
+    }
+    group.bench_function("compile_jit", |b| {
         b.iter(|| NativeTape::new(black_box(surface.tape())).unwrap())
-    });
-    group.bench_function("value_gradient_single/bytecode", |b| {
-        b.iter(|| {
-            for (o, p) in grads.iter_mut().zip(black_box(&pts)) {
-                *o = surface.value_gradient(*p);
-            }
-        })
     });
     group.finish();
 }

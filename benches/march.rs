@@ -1,7 +1,7 @@
 //! Marcher throughput (triangles per second) on the paper's sphere and genus-3 surface, with
-//! native closures and with the bytecode compiled from the gallery files (what `surfc mesh`
-//! runs), and the share of the time spent evaluating the surface (printed once per case,
-//! measured with a timing wrapper around the surface).
+//! native closures and with the tapes compiled from the gallery files (what `surfc mesh` runs:
+//! native code; and on the interpreter), and the share of the time spent evaluating the
+//! surface (printed once per case, measured with a timing wrapper around the surface).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
 use surfc::compile::compile_surface;
+use surfc::eval::Engine;
 use surfc::march::{MarchInput, MarchSettings, march};
 use surfc::sema::program::{SurfaceId, SurfaceRef};
 use surfc::surface::compiled::CompiledSurface;
@@ -131,10 +132,31 @@ fn benches(c: &mut Criterion) {
     let g = DVec3::new(0.0, 3.0, 0.0);
     case(c, "genus3_0.3", genus3, 0.3, g);
     case(c, "genus3_0.05", genus3, 0.05, g);
+    // Compiled from the gallery files, as `surfc mesh` runs them (native code), and on the
+    // interpreter.
     let sphere_tape = compiled(include_str!("../examples/sphere.surf"), "sphere");
-    case(c, "sphere_0.01_bytecode", sphere_tape, 0.01, s);
     let genus3_tape = compiled(include_str!("../examples/genus3.surf"), "genus3");
-    case(c, "genus3_0.05_bytecode", genus3_tape, 0.05, g);
+    let interpreted = |make: &dyn Fn() -> CompiledSurface| {
+        let mut s = make();
+        s.set_engine(Engine::Interpreter);
+        s
+    };
+    case(c, "sphere_0.01_bytecode", &sphere_tape, 0.01, s);
+    case(
+        c,
+        "sphere_0.01_interpreter",
+        || interpreted(&sphere_tape),
+        0.01,
+        s,
+    );
+    case(c, "genus3_0.05_bytecode", &genus3_tape, 0.05, g);
+    case(
+        c,
+        "genus3_0.05_interpreter",
+        || interpreted(&genus3_tape),
+        0.05,
+        g,
+    );
 }
 
 criterion_group!(march_benches, benches);

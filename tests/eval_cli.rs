@@ -49,6 +49,23 @@ fn eval_json_prints_value_and_gradient() {
         serde_json::json!({"value": -1.0, "gradient": [2.0, 2.0, 2.0]})
     );
     assert_eq!(stdout.lines().count(), 1);
+    // The interpreter prints the same; an unknown engine is a usage error.
+    let mut args = vec![
+        "eval",
+        file.to_str().unwrap(),
+        "sphere",
+        "1",
+        "1",
+        "1",
+        "--json",
+    ];
+    args.extend(["--engine", "interpreter"]);
+    assert_eq!(surfc(&args), (0, stdout, String::new()));
+    args.pop();
+    args.push("jit");
+    let (code, _, stderr) = surfc(&args);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("invalid value 'jit'"), "{stderr}");
 }
 
 #[test]

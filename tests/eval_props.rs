@@ -68,10 +68,15 @@ fn check_surface(
         };
         POINTS
     ];
-    // Both batch engines: the native code (the default) and the block interpreter.
+    // Both engines: the interpreter (its single points are the reference) and the native
+    // code (the default), each at single points and in a batch.
     let mut block_v = batch_v.clone();
     let mut block_g = batch_g.clone();
-    surface.set_engine(Engine::Blocks);
+    surface.set_engine(Engine::Interpreter);
+    let interpreted: Vec<(f64, ValueGrad)> = points
+        .iter()
+        .map(|&p| (surface.value(p), surface.value_gradient(p)))
+        .collect();
     surface.value_batch(&points, &mut block_v);
     surface.value_gradient_batch(&points, &mut block_g);
     surface.set_engine(Engine::Native);
@@ -80,29 +85,26 @@ fn check_surface(
     assert_native_unless_children(name, surface);
     for (i, &p) in points.iter().enumerate() {
         let want = reference(p);
-        let v = surface.value(p);
+        let (v, vg) = interpreted[i];
         assert!(
             close(v, want, VALUE_TOL),
             "{name} at {p}: {v} vs reference {want}"
         );
-        let vg = surface.value_gradient(p);
         assert_eq!(
             vg.value.to_bits(),
             v.to_bits(),
             "{name} at {p}: value modes differ"
         );
-        assert_eq!(
-            batch_v[i].to_bits(),
-            v.to_bits(),
-            "{name} at {p}: batch value"
-        );
-        assert_eq!(batch_g[i], vg, "{name} at {p}: batch gradient");
-        assert_eq!(
-            block_v[i].to_bits(),
-            v.to_bits(),
-            "{name} at {p}: block value"
-        );
-        assert_eq!(block_g[i], vg, "{name} at {p}: block gradient");
+        let native = (surface.value(p), surface.value_gradient(p));
+        let found = [
+            ("native", native.0, native.1),
+            ("native batch", batch_v[i], batch_g[i]),
+            ("block", block_v[i], block_g[i]),
+        ];
+        for (what, value, grad) in found {
+            assert_eq!(value.to_bits(), v.to_bits(), "{name} at {p}: {what} value");
+            assert_eq!(grad, vg, "{name} at {p}: {what} gradient");
+        }
         let fd = central(&mut |q| reference(q), p, h);
         let floor = GRAD_TOL * (want.abs() / size + 1.0);
         let err = (vg.gradient - fd).abs().max_element();
@@ -427,7 +429,13 @@ fn every_opcode_matches_its_reference_on_edge_inputs() {
             };
             points.len()
         ];
-        for engine in [Engine::Native, Engine::Blocks] {
+        // The reference of both engines: the interpreter's dense dual numbers.
+        vm.set_engine(Engine::Interpreter);
+        let dense: Vec<Grad> = points
+            .iter()
+            .map(|p| vm.value_grad(&[p.x, p.y, p.z]))
+            .collect();
+        for engine in [Engine::Native, Engine::Interpreter] {
             vm.set_engine(engine);
             vm.value_batch(&points, &mut batch_v);
             vm.value_grad_batch(&points, &mut batch_g);
@@ -446,34 +454,29 @@ fn every_opcode_matches_its_reference_on_edge_inputs() {
                 let want = reference(p.x, p.y);
                 let v = vm.value(&[p.x, p.y, p.z]);
                 let g = vm.value_grad(&[p.x, p.y, p.z]);
-                assert!(same(v, want), "{} {p}: {v} vs {want}", op.name());
-                assert!(
-                    same(g.v, want),
-                    "{} {p}: dual value {} vs {want}",
-                    op.name(),
-                    g.v
-                );
-                assert!(
-                    same(batch_v[i], want),
-                    "{} {engine:?} {p}: batch value",
-                    op.name()
-                );
                 let bg = batch_g[i];
-                assert!(
-                    same(bg.value, g.v),
-                    "{} {engine:?} {p}: batch dual value",
-                    op.name()
-                );
-                for (x, y) in [
-                    (bg.gradient.x, g.dx),
-                    (bg.gradient.y, g.dy),
-                    (bg.gradient.z, g.dz),
-                ] {
+                let bg = Grad::new(bg.value, bg.gradient.x, bg.gradient.y, bg.gradient.z);
+                let name = op.name();
+                assert!(same(v, want), "{name} {engine:?} {p}: {v} vs {want}");
+                assert!(same(batch_v[i], want), "{name} {engine:?} {p}: batch value");
+                for (what, found) in [("dual", g), ("batch dual", bg)] {
                     assert!(
-                        same_partial(x, y),
-                        "{} {engine:?} {p}: batch gradient {bg:?} vs {g:?}",
-                        op.name()
+                        same(found.v, want),
+                        "{name} {engine:?} {p}: {what} value {} vs {want}",
+                        found.v
                     );
+                    let pairs = [
+                        (found.dx, dense[i].dx),
+                        (found.dy, dense[i].dy),
+                        (found.dz, dense[i].dz),
+                    ];
+                    for (x, y) in pairs {
+                        assert!(
+                            same_partial(x, y),
+                            "{name} {engine:?} {p}: {what} {found:?} vs dense {:?}",
+                            dense[i]
+                        );
+                    }
                 }
             }
         }
@@ -626,7 +629,7 @@ fn batches_of_any_length_match_single_points() {
         value: 12345.0,
         gradient: DVec3::splat(-1.0),
     };
-    for engine in [Engine::Native, Engine::Blocks] {
+    for engine in [Engine::Native, Engine::Interpreter] {
         s.set_engine(engine);
         for n in 0..=points.len() {
             for m in [n.saturating_sub(1), n, n + 2] {

@@ -8,7 +8,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use surfc::cli::mesh::{Meshed, mesh_source};
+use surfc::cli::mesh::{Meshed, mesh_source, mesh_source_with};
+use surfc::eval::Engine;
 use surfc::mesh::NamedMesh;
 use surfc::mesh::check::{Expect, check};
 use surfc::mesh::quality::quality;
@@ -185,6 +186,34 @@ fn mesh_example(path: &Path) -> (String, Vec<Meshed>) {
     match mesh_source(&source) {
         Ok(m) => (source, m),
         Err(diags) => panic!("{} does not mesh: {diags:#?}", path.display()),
+    }
+}
+
+/// Both engines mesh every example alike: the same vertices, normals and triangles, bit for
+/// bit. (Their gradients may differ in the sign of a zero partial; no example's mesh depends
+/// on it, and this test says so if one ever does.)
+#[test]
+fn engines_mesh_the_gallery_alike() {
+    let bits = |v: &[glam::DVec3]| -> Vec<[u64; 3]> {
+        v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
+    };
+    for path in examples() {
+        let source = std::fs::read_to_string(&path).unwrap();
+        let [native, interpreted] = [Engine::Native, Engine::Interpreter]
+            .map(|engine| mesh_source_with(&source, engine).expect("the example meshes"));
+        assert_eq!(native.len(), interpreted.len(), "{}", path.display());
+        for (a, b) in native.iter().zip(&interpreted) {
+            let what = format!("{}: mesh `{}`", path.display(), a.name);
+            assert_eq!(a.mesh.triangles, b.mesh.triangles, "{what}: triangles");
+            assert!(
+                bits(&a.mesh.vertices) == bits(&b.mesh.vertices),
+                "{what}: vertices"
+            );
+            assert!(
+                bits(&a.mesh.normals) == bits(&b.mesh.normals),
+                "{what}: normals"
+            );
+        }
     }
 }
 

@@ -85,6 +85,15 @@ fn same_input_same_bytes_in_every_format() {
         assert!(!a.is_empty());
         assert_eq!(a, b, "{ext} differs between two runs");
     }
+    // The interpreter writes the same file as the default native code.
+    let c = "c.obj";
+    let interpreted = ["mesh", &file, "-q", "-o", c, "--engine", "interpreter"];
+    assert_eq!(surfc(&interpreted, &dir).0, 0);
+    assert_eq!(
+        std::fs::read(dir.join("a.obj")).unwrap(),
+        std::fs::read(dir.join(c)).unwrap(),
+        "the engines' meshes differ"
+    );
 }
 
 #[test]

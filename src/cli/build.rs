@@ -8,6 +8,7 @@ use std::collections::BTreeMap;
 use glam::DVec3;
 
 use crate::compile::{self, CompileError};
+use crate::eval::Engine;
 use crate::sema::program::{CurveId, CurveKind, Program, SurfaceRef};
 use crate::solve::curve::{self, CurveError, Polygon};
 use crate::solve::tolerance::{FootTolerance, PatchFootTolerance, SurfacePointTolerance};
@@ -36,13 +37,16 @@ type CurveKey = (CurveId, u64, Option<[u64; 6]>);
 /// Builds surfaces and curves of one program, caching sampled curves.
 pub(crate) struct Builder<'p> {
     program: &'p Program,
+    /// The engine of every surface built.
+    engine: Engine,
     curves: BTreeMap<CurveKey, Polygon>,
 }
 
 impl<'p> Builder<'p> {
-    pub(crate) fn new(program: &'p Program) -> Self {
+    pub(crate) fn new(program: &'p Program, engine: Engine) -> Self {
         Builder {
             program,
+            engine,
             curves: BTreeMap::new(),
         }
     }
@@ -55,9 +59,11 @@ impl<'p> Builder<'p> {
         r: &SurfaceRef,
         scale: f64,
     ) -> Result<CompiledSurface, CompileError> {
-        compile::compile_surface(self.program, r, &mut |target| {
+        let mut surface = compile::compile_surface(self.program, r, &mut |target| {
             self.dist_child(target, scale)
-        })
+        })?;
+        surface.set_engine(self.engine);
+        Ok(surface)
     }
 
     fn dist_child(

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 
-use super::{ColorMode, EXIT_INPUT};
+use super::{ColorMode, EXIT_INPUT, EngineChoice};
 use crate::compile::CompileError;
 use crate::sema::program::{Program, SurfaceId, SurfaceRef};
 use crate::surface::Surface;
@@ -21,6 +21,9 @@ pub struct EvalArgs {
     /// Print one JSON object `{"value": V, "gradient": [GX, GY, GZ]}`.
     #[arg(long)]
     pub json: bool,
+    /// How surfaces are evaluated: machine code compiled from the tape, or the interpreter.
+    #[arg(long, value_enum, default_value_t = EngineChoice::Native)]
+    pub engine: EngineChoice,
 }
 
 /// The id of the surface called `name`, or a message listing the known surfaces and
@@ -56,7 +59,7 @@ pub fn run(args: EvalArgs, color: ColorMode) -> u8 {
         Err(code) => return code,
     };
     // dist() children measure their tolerances against a unit length: eval has no step.
-    let builder = super::build::Builder::new(&loaded.program);
+    let builder = super::build::Builder::new(&loaded.program, args.engine.into());
     let mut surface = match builder.surface(&SurfaceRef::Surface(id), 1.0) {
         Ok(s) => s,
         Err(e) => return report_compile_error(&e),

@@ -11,8 +11,9 @@ use serde::Serialize;
 
 use super::build::{BuildError, Builder};
 use super::load::{Loaded, load, stderr_color};
-use super::{ColorMode, EXIT_INPUT, EXIT_USAGE};
+use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
 use crate::diag::{self, Diagnostic, messages};
+use crate::eval::Engine;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::quality::MeshReport;
 use crate::mesh::summary::{MeshSummary, Progress, format_summary};
@@ -59,6 +60,9 @@ pub struct MeshArgs {
     /// No progress bar and no summary table on stderr.
     #[arg(long, short)]
     pub quiet: bool,
+    /// How surfaces are evaluated: machine code compiled from the tape, or the interpreter.
+    #[arg(long, value_enum, default_value_t = EngineChoice::Native)]
+    pub engine: EngineChoice,
 }
 
 /// The `--json` report (DESIGN.md §3); structs keep the keys in the documented order.
@@ -109,7 +113,7 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
         Ok(s) => s,
         Err(code) => return code,
     };
-    let meshed = match mesh_blocks(&loaded, &selected, color, args.quiet) {
+    let meshed = match mesh_blocks(&loaded, &selected, color, args.quiet, args.engine.into()) {
         Ok(m) => m,
         Err(code) => return code,
     };
@@ -202,8 +206,9 @@ pub(crate) fn mesh_blocks(
     blocks: &[&MeshDef],
     color: ColorMode,
     quiet: bool,
+    engine: Engine,
 ) -> Result<Vec<Meshed>, u8> {
-    mesh_program(&loaded.program, &loaded.source, blocks, quiet).map_err(|d| {
+    mesh_program(&loaded.program, &loaded.source, blocks, quiet, engine).map_err(|d| {
         diag::emit_stderr(
             &[d],
             &loaded.path.display().to_string(),
@@ -218,11 +223,16 @@ pub(crate) fn mesh_blocks(
 /// `surfc mesh`, for tests and embedders. Err holds every diagnostic of the file, or the one
 /// that says why a mesh could not be completed.
 pub fn mesh_source(source: &str) -> Result<Vec<Meshed>, Vec<Diagnostic>> {
+    mesh_source_with(source, Engine::default())
+}
+
+/// [`mesh_source`] with the surfaces evaluated by `engine`.
+pub fn mesh_source_with(source: &str, engine: Engine) -> Result<Vec<Meshed>, Vec<Diagnostic>> {
     let (checked, diags) = super::load::analyse(source);
     match checked {
         Some((_, program)) if !diag::has_errors(&diags) => {
             let blocks: Vec<&MeshDef> = program.meshes.iter().collect();
-            mesh_program(&program, source, &blocks, true).map_err(|d| vec![d])
+            mesh_program(&program, source, &blocks, true, engine).map_err(|d| vec![d])
         }
         _ => Err(diags),
     }
@@ -234,8 +244,9 @@ fn mesh_program(
     source: &str,
     blocks: &[&MeshDef],
     quiet: bool,
+    engine: Engine,
 ) -> Result<Vec<Meshed>, Diagnostic> {
-    let mut builder = Builder::new(program);
+    let mut builder = Builder::new(program, engine);
     blocks
         .iter()
         .map(|def| {

@@ -34,6 +34,25 @@ pub struct Cli {
     pub command: Command,
 }
 
+/// How surfaces are evaluated (`--engine` of the commands that evaluate).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum EngineChoice {
+    /// The surface's tape compiled to machine code.
+    #[default]
+    Native,
+    /// The bytecode interpreter: the same values; gradients the same up to the sign of zero.
+    Interpreter,
+}
+
+impl From<EngineChoice> for crate::eval::Engine {
+    fn from(choice: EngineChoice) -> Self {
+        match choice {
+            EngineChoice::Native => crate::eval::Engine::Native,
+            EngineChoice::Interpreter => crate::eval::Engine::Interpreter,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ColorMode {
     Auto,

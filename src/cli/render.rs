@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use super::load::load;
 use super::mesh::{mesh_blocks, named, select};
-use super::{ColorMode, EXIT_USAGE};
+use super::{ColorMode, EXIT_USAGE, EngineChoice};
 use crate::mesh::render::{RenderOptions, parse_size, parse_view, write_picture_file};
 
 #[derive(clap::Args, Debug)]
@@ -26,6 +26,9 @@ pub struct RenderArgs {
     /// No progress spinner on stderr.
     #[arg(long, short)]
     pub quiet: bool,
+    /// How surfaces are evaluated: machine code compiled from the tape, or the interpreter.
+    #[arg(long, value_enum, default_value_t = EngineChoice::Native)]
+    pub engine: EngineChoice,
 }
 
 pub fn run(args: RenderArgs, color: ColorMode) -> u8 {
@@ -50,7 +53,7 @@ pub fn run(args: RenderArgs, color: ColorMode) -> u8 {
         Err(code) => return code,
     };
     let meshed = match select(&loaded, &args.only)
-        .and_then(|blocks| mesh_blocks(&loaded, &blocks, color, args.quiet))
+        .and_then(|blocks| mesh_blocks(&loaded, &blocks, color, args.quiet, args.engine.into()))
     {
         Ok(m) => m,
         Err(code) => return code,

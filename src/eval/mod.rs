@@ -124,21 +124,23 @@ pub struct Vm {
     masks: Vec<[u8; 3]>,
     /// The same for the first output register.
     output_mask: u8,
-    /// Which engine runs the batch paths.
+    /// Which engine evaluates.
     engine: Engine,
-    /// The tape's native code, compiled at the first batch call that wants it.
+    /// The tape's native code, compiled at the first evaluation that wants it.
     native: Native,
 }
 
-/// The engine of the batch paths ([`Vm::value_batch`], [`Vm::value_grad_batch`]). Both give
-/// the same values bit for bit and the same partials up to the sign of zero.
+/// The engine that evaluates a surface tape, at single points and in batches. Both give the
+/// same values bit for bit and the same partials up to the sign of zero.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Engine {
-    /// The tape compiled to native code (`native.rs`), where it can be; else `Blocks`.
+    /// The tape compiled to native code (`native.rs`), where it can be (surface tapes without
+    /// `dist` children, on a host Cranelift supports); else the interpreter.
     #[default]
     Native,
-    /// The interpreter's block loops.
-    Blocks,
+    /// The interpreter: dense dual numbers at single points (the reference of both engines),
+    /// block loops over batches.
+    Interpreter,
 }
 
 /// The state of a VM's native code.
@@ -321,13 +323,13 @@ impl Vm {
         &self.tape
     }
 
-    /// Chooses the engine of the batch paths.
+    /// Chooses the engine.
     pub fn set_engine(&mut self, engine: Engine) {
         self.engine = engine;
     }
 
-    /// The native code of the batch paths, compiled at the first call; None if the engine is
-    /// `Blocks` or the tape cannot have native code ([`Vm::native_error`] says why).
+    /// The tape's native code, compiled at the first call; None if the engine is the
+    /// interpreter or the tape cannot have native code ([`Vm::native_error`] says why).
     fn native(&mut self) -> Option<&native::NativeTape> {
         if self.engine != Engine::Native {
             return None;
@@ -344,8 +346,8 @@ impl Vm {
         }
     }
 
-    /// Why the batch paths run on the block interpreter although the engine is `Native`, once
-    /// a batch call has tried to compile the tape.
+    /// Why the interpreter evaluates although the engine is `Native`, once an evaluation has
+    /// tried to compile the tape.
     pub fn native_error(&self) -> Option<&native::NativeError> {
         match &self.native {
             Native::Unavailable(e) => Some(e),
@@ -407,17 +409,26 @@ impl Vm {
 
     /// The first output at one point (`inputs`: x, y, z or u, v; missing ones read as 0).
     pub fn value(&mut self, inputs: &[f64]) -> f64 {
+        if let Some(code) = self.native() {
+            return code.value_at(point_of(inputs));
+        }
         self.run_values(inputs);
         self.values[self.tape.outputs()[0].index()]
     }
 
     /// The first output with its partial derivatives by the inputs.
     pub fn value_grad(&mut self, inputs: &[f64]) -> Grad {
+        if let Some(code) = self.native() {
+            let vg = code.value_grad_at(point_of(inputs));
+            let d = vg.gradient;
+            return Grad::new(vg.value, d.x, d.y, d.z);
+        }
         self.run_grads(inputs);
         self.grads[self.tape.outputs()[0].index()]
     }
 
-    /// Every output with its partials, into `out` (as many as fit).
+    /// Every output with its partials, into `out` (as many as fit). Interpreted (patch tapes
+    /// have no native code).
     pub fn grad_outputs(&mut self, inputs: &[f64], out: &mut [Grad]) {
         self.run_grads(inputs);
         for (o, r) in out.iter_mut().zip(self.tape.outputs()) {

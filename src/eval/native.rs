@@ -1,8 +1,8 @@
-//! Native code for a surface tape's batch evaluation: the tape is translated, once, into a
-//! Cranelift function that runs the whole tape for two points at a time with every register
-//! held in a two-lane vector (f64x2), so a point's intermediates stay in CPU registers instead
-//! of streaming through the VM's register blocks. One function computes values, another
-//! values and gradients.
+//! Native code for a surface tape: the tape is translated, once, into Cranelift functions
+//! that run the whole tape for two points at a time with every register held in a two-lane
+//! vector (f64x2), so a point's intermediates stay in CPU registers instead of streaming
+//! through the VM's registers. One function computes values, another values and gradients;
+//! each serves batches, and single points as a pair of copies.
 //!
 //! The translation is a partial evaluation of the batch VM's arithmetic: each register is
 //! either a constant known at translation time or a vector, and each partial derivative
@@ -55,7 +55,7 @@ const WIDTH: usize = 2;
 /// `fn(points, out, pairs)`: `pairs` pairs of points in, one result a point out.
 type BatchFn<T> = unsafe extern "C" fn(*const DVec3, *mut T, usize);
 
-/// A tape compiled to native code: values, and values with gradients, over a batch.
+/// A tape compiled to native code: values, and values with gradients.
 pub struct NativeTape {
     /// Owns the executable memory of both functions; freed on drop.
     module: Option<JITModule>,
@@ -151,6 +151,27 @@ impl NativeTape {
     /// f and ∇f at each point, for i below the shorter length.
     pub fn value_grads(&self, points: &[DVec3], out: &mut [ValueGrad]) {
         run(self.value_grads, points, out);
+    }
+
+    /// f at one point (run as a pair of copies).
+    pub fn value_at(&self, p: DVec3) -> f64 {
+        let pad = [p; WIDTH];
+        let mut out = [0.0; WIDTH];
+        // SAFETY: one pair in, one pair out, both local arrays.
+        unsafe { (self.values)(pad.as_ptr(), out.as_mut_ptr(), 1) };
+        out[0]
+    }
+
+    /// f and ∇f at one point (run as a pair of copies).
+    pub fn value_grad_at(&self, p: DVec3) -> ValueGrad {
+        let pad = [p; WIDTH];
+        let mut out = [ValueGrad {
+            value: 0.0,
+            gradient: DVec3::ZERO,
+        }; WIDTH];
+        // SAFETY: as above.
+        unsafe { (self.value_grads)(pad.as_ptr(), out.as_mut_ptr(), 1) };
+        out[0]
     }
 }
 
@@ -282,7 +303,9 @@ impl<'a, 'b> Emitter<'a, 'b> {
 
     /// Loads pair `at` of `points`, runs the tape, stores the pair's results into `out`.
     fn pair(&mut self, points: Value, out: Value, at: Value) {
-        let flags = MemFlagsData::trusted();
+        // Cannot trap (the caller checked the lengths); not `aligned`: a vector store into
+        // `out` is only as aligned as an f64.
+        let flags = MemFlagsData::new().with_notrap();
         let base = self.b.ins().imul_imm_u(at, (WIDTH * 24) as i64);
         let base = self.b.ins().iadd(points, base);
         let mut inputs = [ZERO; 3];

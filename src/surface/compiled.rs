@@ -26,13 +26,13 @@ impl CompiledSurface {
         self.vm.tape()
     }
 
-    /// Chooses the engine of the batch paths (native code by default).
+    /// Chooses the engine (native code by default).
     pub fn set_engine(&mut self, engine: Engine) {
         self.vm.set_engine(engine);
     }
 
-    /// Why the batch paths run on the block interpreter although native code was asked for
-    /// (known after the first batch call).
+    /// Why the interpreter evaluates although native code was asked for (known after the
+    /// first evaluation).
     pub fn native_error(&self) -> Option<&NativeError> {
         self.vm.native_error()
     }
