@@ -33,15 +33,9 @@ fn sphere_file(dir: &tempfile::TempDir) -> PathBuf {
 fn eval_json_prints_value_and_gradient() {
     let dir = tempfile::tempdir().unwrap();
     let file = sphere_file(&dir);
-    let (code, stdout, stderr) = surfc(&[
-        "eval",
-        file.to_str().unwrap(),
-        "sphere",
-        "1",
-        "1",
-        "1",
-        "--json",
-    ]);
+    let mut args = vec!["eval", file.to_str().unwrap(), "sphere", "1", "1", "1"];
+    args.push("--json");
+    let (code, stdout, stderr) = surfc(&args);
     assert_eq!(code, 0, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
     assert_eq!(
@@ -50,15 +44,6 @@ fn eval_json_prints_value_and_gradient() {
     );
     assert_eq!(stdout.lines().count(), 1);
     // The interpreter prints the same; an unknown engine is a usage error.
-    let mut args = vec![
-        "eval",
-        file.to_str().unwrap(),
-        "sphere",
-        "1",
-        "1",
-        "1",
-        "--json",
-    ];
     args.extend(["--engine", "interpreter"]);
     assert_eq!(surfc(&args), (0, stdout, String::new()));
     args.pop();
