@@ -8,6 +8,7 @@ use compile_common as common;
 use common::{GENUS3, Rng, SPHERE, TORUS, program, surface_id};
 use glam::DVec3;
 use surfc::compile::compile_surface;
+use surfc::eval::Engine;
 use surfc::sema::program::SurfaceRef;
 use surfc::solve::tolerance::SurfacePointTolerance;
 use surfc::solve::{SurfacePointError, surface_point};
@@ -48,13 +49,21 @@ fn unit(rng: &mut Rng) -> DVec3 {
     }
 }
 
-/// Projects starts p + s·step·(random direction), s ≤ 1, for each surface point p.
+/// Projects starts p + s·step·(random direction), s ≤ 1, for each surface point p, with
+/// each engine.
 fn converges_from_one_step_away(
     surface: &mut CompiledSurface,
     on_surface: &[DVec3],
     step: f64,
     size: f64,
 ) {
+    for engine in [Engine::Native, Engine::Interpreter] {
+        surface.set_engine(engine);
+        converges_on_engine(surface, on_surface, step, size);
+    }
+}
+
+fn converges_on_engine(surface: &mut CompiledSurface, on_surface: &[DVec3], step: f64, size: f64) {
     let tol = SurfacePointTolerance::default();
     let mut rng = Rng::new(42);
     let mut worst = 0;
@@ -136,6 +145,17 @@ fn genus3() {
 
 #[test]
 fn vanishing_gradient_is_reported() {
+    for engine in [Engine::Native, Engine::Interpreter] {
+        vanishing_gradient_is_reported_on(engine);
+    }
+}
+
+fn vanishing_gradient_is_reported_on(engine: Engine) {
+    let compiled = |source: &str, name: &str| {
+        let mut s = compiled(source, name);
+        s.set_engine(engine);
+        s
+    };
     let tol = SurfacePointTolerance::default();
     let mut sphere = compiled(SPHERE, "sphere");
     let e = surface_point(&mut sphere, DVec3::ZERO, 0.3, &tol).unwrap_err();
