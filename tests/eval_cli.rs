@@ -94,3 +94,40 @@ fn bytecode_prints_the_listing() {
     assert_eq!(stdout, surfc::compile::listing(&p, &l));
     assert!(stdout.contains("  0  r4 = square r0\n"), "{stdout}");
 }
+
+/// `surfc bytecode … | head -1`: a reader that stops early is not an error (no panic, exit 0).
+#[test]
+fn a_reader_that_stops_early_is_not_an_error() {
+    use std::io::BufRead;
+    // A listing far longer than a pipe's buffer: 20 surfaces of 50 distinct terms each.
+    let mut source = String::new();
+    for s in 0..20 {
+        let terms: Vec<String> = (0..50)
+            .map(|i| format!("(x * {} - y * {}.5)^2", s * 50 + i + 1, i % 7))
+            .collect();
+        source.push_str(&format!("surface s{s} = {};\n", terms.join(" + ")));
+    }
+    let all: Vec<String> = (0..20).map(|s| format!("s{s}")).collect();
+    source.push_str(&format!("surface long = {} - 1;\n", all.join(" + ")));
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("long.surf");
+    std::fs::write(&path, source).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_surfc"))
+        .args(["bytecode", path.to_str().unwrap(), "long"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run surfc");
+    let mut first = String::new();
+    {
+        let stdout = child.stdout.take().unwrap();
+        std::io::BufReader::new(stdout)
+            .read_line(&mut first)
+            .unwrap();
+    }
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(first.starts_with("; 3 inputs"), "{first}");
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stderr.is_empty(), "{stderr}");
+}

@@ -655,3 +655,38 @@ fn batches_of_any_length_match_single_points() {
     }
     assert_native_unless_children("genus3", &s);
 }
+
+/// A tape past Cranelift's optimisation limit (1024 instructions; compiled without its e-graph
+/// pass) agrees with the interpreter like any other, callbacks included.
+#[test]
+fn large_tapes_agree_with_the_interpreter() {
+    let mut source = String::new();
+    for s in 0..8 {
+        let terms: Vec<String> = (0..50)
+            .map(|i| format!("sin(x * {} - y) * (z - {}.25)^2", s * 50 + i + 1, i % 7))
+            .collect();
+        source.push_str(&format!("surface s{s} = {};\n", terms.join(" + ")));
+    }
+    let all: Vec<String> = (0..8).map(|s| format!("s{s}")).collect();
+    source.push_str(&format!("surface large = {} - 1;\n", all.join(" + ")));
+    let p = program(&source);
+    let mut s = compile_named(&p, "large");
+    assert!(
+        s.tape().instrs().len() > 1024,
+        "{}",
+        s.tape().instrs().len()
+    );
+    let mut rng = Rng::new(11);
+    let points: Vec<DVec3> = (0..64)
+        .map(|_| rng.point(DVec3::splat(-1.0), DVec3::splat(1.0)))
+        .collect();
+    s.set_engine(Engine::Interpreter);
+    let interpreted: Vec<ValueGrad> = points.iter().map(|&q| s.value_gradient(q)).collect();
+    s.set_engine(Engine::Native);
+    for (q, want) in points.iter().zip(&interpreted) {
+        let found = s.value_gradient(*q);
+        assert_eq!(found.value.to_bits(), want.value.to_bits(), "at {q}");
+        assert_eq!(found, *want, "at {q}");
+    }
+    assert_native_unless_children("large", &s);
+}

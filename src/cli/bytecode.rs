@@ -27,6 +27,5 @@ pub fn run(args: BytecodeArgs, color: ColorMode) -> u8 {
         Ok(l) => l,
         Err(e) => return report_compile_error(&e),
     };
-    print!("{}", compile::listing(&loaded.program, &lowered));
-    0
+    super::print_stdout(&compile::listing(&loaded.program, &lowered))
 }

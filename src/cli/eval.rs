@@ -78,12 +78,14 @@ pub fn run(args: EvalArgs, color: ColorMode) -> u8 {
             value: vg.value,
             gradient: [g.x, g.y, g.z],
         };
-        println!("{}", serde_json::to_string(&out).unwrap_or_default());
+        super::print_stdout(&format!(
+            "{}\n",
+            serde_json::to_string(&out).unwrap_or_default()
+        ))
     } else {
-        println!(
-            "{}({}, {}, {}) = {}, gradient ({}, {}, {})",
+        super::print_stdout(&format!(
+            "{}({}, {}, {}) = {}, gradient ({}, {}, {})\n",
             args.surface, p.x, p.y, p.z, vg.value, g.x, g.y, g.z
-        );
+        ))
     }
-    0
 }

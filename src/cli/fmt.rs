@@ -1,7 +1,6 @@
 //! `surfc fmt FILE`: print the file in canonical formatting on stdout (comments kept). A file
 //! with syntax errors is not formatted: its diagnostics go to stderr and the exit code is 1.
 
-use std::io::Write;
 use std::path::PathBuf;
 
 use crate::diag;
@@ -26,14 +25,5 @@ pub fn run(args: FmtArgs, color: ColorMode) -> u8 {
         diag::emit_stderr(&diags, &args.file.display().to_string(), &source, color);
         return super::EXIT_INPUT;
     };
-    let text = syntax::format(&file);
-    let mut out = std::io::stdout().lock();
-    if out
-        .write_all(text.as_bytes())
-        .and_then(|()| out.flush())
-        .is_err()
-    {
-        return super::EXIT_USAGE;
-    }
-    0
+    super::print_stdout(&syntax::format(&file))
 }

@@ -142,7 +142,13 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
             meshes,
             seconds: started.elapsed().as_secs_f64(),
         };
-        println!("{}", serde_json::to_string(&json).unwrap_or_default());
+        let code = super::print_stdout(&format!(
+            "{}\n",
+            serde_json::to_string(&json).unwrap_or_default()
+        ));
+        if code != 0 {
+            return code;
+        }
     }
     if !args.quiet {
         let rows: Vec<MeshSummary> = meshed

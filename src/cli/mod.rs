@@ -76,6 +76,21 @@ pub enum Command {
     Bytecode(bytecode::BytecodeArgs),
 }
 
+/// Writes `text` to stdout; the exit code. A reader that stopped reading (`surfc bytecode …
+/// | head`) is not an error; any other failure to write is reported, `EXIT_USAGE`.
+pub(crate) fn print_stdout(text: &str) -> u8 {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Ok(()) => 0,
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => 0,
+        Err(e) => {
+            eprintln!("error: cannot write to standard output: {e}");
+            EXIT_USAGE
+        }
+    }
+}
+
 /// Parses the process arguments and runs the command.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
