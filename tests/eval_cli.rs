@@ -99,16 +99,10 @@ fn bytecode_prints_the_listing() {
 #[test]
 fn a_reader_that_stops_early_is_not_an_error() {
     use std::io::BufRead;
-    // A listing far longer than a pipe's buffer: 20 surfaces of 50 distinct terms each.
-    let mut source = String::new();
-    for s in 0..20 {
-        let terms: Vec<String> = (0..50)
-            .map(|i| format!("(x * {} - y * {}.5)^2", s * 50 + i + 1, i % 7))
-            .collect();
-        source.push_str(&format!("surface s{s} = {};\n", terms.join(" + ")));
-    }
-    let all: Vec<String> = (0..20).map(|s| format!("s{s}")).collect();
-    source.push_str(&format!("surface long = {} - 1;\n", all.join(" + ")));
+    // A listing far longer than a pipe's buffer: 1000 distinct terms.
+    let source = common::large_source("long", 20, |k| {
+        format!("(x * {} - y * {}.5)^2", k + 1, k % 7)
+    });
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("long.surf");
     std::fs::write(&path, source).unwrap();

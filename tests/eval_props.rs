@@ -660,15 +660,9 @@ fn batches_of_any_length_match_single_points() {
 /// pass) agrees with the interpreter like any other, callbacks included.
 #[test]
 fn large_tapes_agree_with_the_interpreter() {
-    let mut source = String::new();
-    for s in 0..8 {
-        let terms: Vec<String> = (0..50)
-            .map(|i| format!("sin(x * {} - y) * (z - {}.25)^2", s * 50 + i + 1, i % 7))
-            .collect();
-        source.push_str(&format!("surface s{s} = {};\n", terms.join(" + ")));
-    }
-    let all: Vec<String> = (0..8).map(|s| format!("s{s}")).collect();
-    source.push_str(&format!("surface large = {} - 1;\n", all.join(" + ")));
+    let source = common::large_source("large", 8, |k| {
+        format!("sin(x * {} - y) * (z - {}.25)^2", k + 1, k % 7)
+    });
     let p = program(&source);
     let mut s = compile_named(&p, "large");
     assert!(

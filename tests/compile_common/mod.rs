@@ -150,6 +150,19 @@ impl Rng {
     }
 }
 
+/// A large program: `surfaces` surfaces `s0, s1, …` of 50 terms each, `term(k)` the k-th term
+/// overall, and `name` = their sum − 1.
+pub fn large_source(name: &str, surfaces: usize, term: impl Fn(usize) -> String) -> String {
+    let mut source = String::new();
+    for s in 0..surfaces {
+        let terms: Vec<String> = (0..50).map(|i| term(s * 50 + i)).collect();
+        source.push_str(&format!("surface s{s} = {};\n", terms.join(" + ")));
+    }
+    let all: Vec<String> = (0..surfaces).map(|s| format!("s{s}")).collect();
+    source.push_str(&format!("surface {name} = {} - 1;\n", all.join(" + ")));
+    source
+}
+
 pub const SPHERE: &str = "surface sphere = x^2 + y^2 + z^2 - 4;\n";
 
 pub const TORUS: &str = "const r = 1;\nconst a = 0.35;\n\
