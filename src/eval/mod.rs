@@ -9,9 +9,12 @@
 //! only the partials that can be non-zero (per-instruction masks). While a block computes,
 //! the next block's points and output slots are hinted into the cache a few lines per
 //! instruction, so the memory streams overlap the arithmetic. `dist` instructions call the
-//! tape's child surfaces. By default the batch paths run the tape's native code instead
-//! ([`native`], compiled at the first batch call); the block loops are the second [`Engine`]
-//! and the fallback. `docs/compiler.md` has the measurements behind these choices.
+//! tape's child surfaces.
+//!
+//! That is the interpreter. By default a surface tape runs as native code instead, at single
+//! points and in batches ([`native`], compiled at the first evaluation); the interpreter is
+//! the other [`Engine`], the reference the native code is tested against, and the fallback.
+//! `docs/compiler.md` has the measurements behind these choices.
 
 pub mod native;
 pub mod ops;
