@@ -369,6 +369,16 @@ fn reference_op(op: Op) -> fn(f64, f64) -> f64 {
     }
 }
 
+/// A VM of `op_tape(op)`, with the `dist` child when `op` is `dist`.
+fn op_vm(op: Op) -> Vm {
+    let children = if op == Op::Dist {
+        vec![dist_child()]
+    } else {
+        vec![]
+    };
+    Vm::new(op_tape(op), children).unwrap()
+}
+
 fn dist_child() -> Box<dyn Surface> {
     Box::new(NativeSurface(|p: DVec3| ValueGrad {
         value: p.length() - 2.0,
@@ -406,14 +416,7 @@ const EDGE: [f64; 14] = [
 #[test]
 fn every_opcode_matches_its_reference_on_edge_inputs() {
     for op in Op::ALL {
-        let children = || {
-            if op == Op::Dist {
-                vec![dist_child()]
-            } else {
-                vec![]
-            }
-        };
-        let mut vm = Vm::new(op_tape(op), children()).unwrap();
+        let mut vm = op_vm(op);
         let reference = reference_op(op);
         let mut points = Vec::new();
         for &a in &EDGE {
@@ -488,14 +491,7 @@ fn every_opcode_derivative_matches_central_differences() {
     // Points inside every opcode's domain, away from its kinks.
     let samples: [(f64, f64); 4] = [(0.3, 0.7), (-0.45, 1.3), (0.8, -0.6), (0.1, 2.2)];
     for op in Op::ALL {
-        let children = || {
-            if op == Op::Dist {
-                vec![dist_child()]
-            } else {
-                vec![]
-            }
-        };
-        let mut vm = Vm::new(op_tape(op), children()).unwrap();
+        let mut vm = op_vm(op);
         let reference = reference_op(op);
         for &(a, b) in &samples {
             let (a, b) = match op {

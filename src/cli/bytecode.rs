@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use super::ColorMode;
-use super::eval::{find_surface, report_compile_error};
+use super::eval::{load_surface, report_compile_error};
 use crate::compile;
 use crate::sema::program::SurfaceRef;
 
@@ -15,12 +15,8 @@ pub struct BytecodeArgs {
 }
 
 pub fn run(args: BytecodeArgs, color: ColorMode) -> u8 {
-    let loaded = match super::load::load(&args.file, color) {
-        Ok(l) => l,
-        Err(code) => return code,
-    };
-    let id = match find_surface(&loaded.program, &args.surface) {
-        Ok(id) => id,
+    let (loaded, id) = match load_surface(&args.file, &args.surface, color) {
+        Ok(found) => found,
         Err(code) => return code,
     };
     let lowered = match compile::lower_surface(&loaded.program, &SurfaceRef::Surface(id)) {

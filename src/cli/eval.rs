@@ -1,9 +1,10 @@
 //! `surfc eval FILE SURFACE X Y Z [--json]`: value and gradient at a point.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
+use super::load::Loaded;
 use super::{ColorMode, EXIT_INPUT, EngineChoice};
 use crate::compile::CompileError;
 use crate::sema::program::{Program, SurfaceId, SurfaceRef};
@@ -28,7 +29,7 @@ pub struct EvalArgs {
 
 /// The id of the surface called `name`, or a message listing the known surfaces and
 /// `EXIT_INPUT`.
-pub(crate) fn find_surface(program: &Program, name: &str) -> Result<SurfaceId, u8> {
+fn find_surface(program: &Program, name: &str) -> Result<SurfaceId, u8> {
     if let Some(i) = program.surfaces.iter().position(|s| s.name == name) {
         return Ok(SurfaceId(i as u32));
     }
@@ -44,18 +45,26 @@ pub(crate) fn find_surface(program: &Program, name: &str) -> Result<SurfaceId, u
     Err(EXIT_INPUT)
 }
 
+/// The file, checked, and the id of its surface `name`; else the exit code (the diagnostics or
+/// the message are printed).
+pub(crate) fn load_surface(
+    file: &Path,
+    name: &str,
+    color: ColorMode,
+) -> Result<(Loaded, SurfaceId), u8> {
+    let loaded = super::load::load(file, color)?;
+    let id = find_surface(&loaded.program, name)?;
+    Ok((loaded, id))
+}
+
 pub(crate) fn report_compile_error(e: &CompileError) -> u8 {
     eprintln!("error: cannot compile the surface: {e}");
     EXIT_INPUT
 }
 
 pub fn run(args: EvalArgs, color: ColorMode) -> u8 {
-    let loaded = match super::load::load(&args.file, color) {
-        Ok(l) => l,
-        Err(code) => return code,
-    };
-    let id = match find_surface(&loaded.program, &args.surface) {
-        Ok(id) => id,
+    let (loaded, id) = match load_surface(&args.file, &args.surface, color) {
+        Ok(found) => found,
         Err(code) => return code,
     };
     // dist() children measure their tolerances against a unit length: eval has no step.

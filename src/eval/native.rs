@@ -160,42 +160,39 @@ impl NativeTape {
         run(self.value_grads, points, out);
     }
 
-    /// f at one point (run as a pair of copies).
+    /// f at one point.
     pub fn value_at(&self, p: DVec3) -> f64 {
-        let pad = [p; WIDTH];
-        let mut out = [0.0; WIDTH];
-        // SAFETY: one pair in, one pair out, both local arrays.
-        unsafe { (self.values)(pad.as_ptr(), out.as_mut_ptr(), 1) };
-        out[0]
+        at_point(self.values, p, 0.0)
     }
 
-    /// f and ∇f at one point (run as a pair of copies).
+    /// f and ∇f at one point.
     pub fn value_grad_at(&self, p: DVec3) -> ValueGrad {
-        let pad = [p; WIDTH];
-        let mut out = [ValueGrad {
+        let unset = ValueGrad {
             value: 0.0,
             gradient: DVec3::ZERO,
-        }; WIDTH];
-        // SAFETY: as above.
-        unsafe { (self.value_grads)(pad.as_ptr(), out.as_mut_ptr(), 1) };
-        out[0]
+        };
+        at_point(self.value_grads, p, unset)
     }
 }
 
-/// Runs `f` over the whole pairs of points, then over the odd last point padded to a pair.
+/// Runs `f` over the whole pairs of points, then over the odd last point.
 fn run<T: Copy>(f: BatchFn<T>, points: &[DVec3], out: &mut [T]) {
     let n = points.len().min(out.len());
     let pairs = n / WIDTH;
     // SAFETY: `f` reads 2·pairs points and writes 2·pairs results, all within the slices.
     unsafe { f(points.as_ptr(), out.as_mut_ptr(), pairs) };
     if n % WIDTH == 1 {
-        let last = n - 1;
-        let pad = [points[last]; WIDTH];
-        let mut slot = [out[last]; WIDTH];
-        // SAFETY: one pair in, one pair out, both local arrays.
-        unsafe { f(pad.as_ptr(), slot.as_mut_ptr(), 1) };
-        out[last] = slot[0];
+        out[n - 1] = at_point(f, points[n - 1], out[n - 1]);
     }
+}
+
+/// `f` at one point, run as a pair of copies (`unset` fills the result slots first).
+fn at_point<T: Copy>(f: BatchFn<T>, p: DVec3, unset: T) -> T {
+    let pad = [p; WIDTH];
+    let mut out = [unset; WIDTH];
+    // SAFETY: one pair in, one pair out, both local arrays.
+    unsafe { f(pad.as_ptr(), out.as_mut_ptr(), 1) };
+    out[0]
 }
 
 /// Defines the batch function of `tape`: values only, or values and gradients.
@@ -395,11 +392,10 @@ impl<'a, 'b> Emitter<'a, 'b> {
     /// `ops::value` otherwise.
     fn value(&mut self, op: Op, a: Lanes, b: Lanes) -> Lanes {
         let unary = op.arity() == Arity::Unary;
-        if let (Const(x), Const(y)) = (a, b) {
-            return Const(ops::value(op, x, y));
-        }
-        if let (true, Const(x)) = (unary, a) {
-            return Const(ops::value(op, x, 0.0));
+        match (a, b) {
+            (Const(x), _) if unary => return Const(ops::value(op, x, 0.0)),
+            (Const(x), Const(y)) => return Const(ops::value(op, x, y)),
+            _ => {}
         }
         let va = self.vector(a);
         let vb = if unary { va } else { self.vector(b) };

@@ -297,43 +297,35 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
     if tris.is_empty() || !(cell > 0.0 && cell.is_finite()) {
         return Vec::new();
     }
-    let key = |p: DVec3| (p / cell).floor().as_ivec3();
+    // The grid cells a triangle's bounding box touches.
+    let cells = |t: &[u32; 3]| {
+        let ps = t.map(|k| vs[k as usize]);
+        let key = |p: DVec3| (p / cell).floor().as_ivec3();
+        let (lo, hi) = (
+            key(ps[0].min(ps[1]).min(ps[2])),
+            key(ps[0].max(ps[1]).max(ps[2])),
+        );
+        (lo.x..=hi.x).flat_map(move |x| {
+            (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| glam::IVec3::new(x, y, z)))
+        })
+    };
     let mut grid: std::collections::HashMap<glam::IVec3, Vec<u32>> = Default::default();
     for (i, t) in tris.iter().enumerate() {
-        let ps = t.map(|k| vs[k as usize]);
-        let lo = key(ps[0].min(ps[1]).min(ps[2]));
-        let hi = key(ps[0].max(ps[1]).max(ps[2]));
-        for x in lo.x..=hi.x {
-            for y in lo.y..=hi.y {
-                for z in lo.z..=hi.z {
-                    grid.entry(glam::IVec3::new(x, y, z))
-                        .or_default()
-                        .push(i as u32);
-                }
-            }
+        for c in cells(t) {
+            grid.entry(c).or_default().push(i as u32);
         }
     }
     let mut seen = vec![u32::MAX; tris.len()];
     let mut out = Vec::new();
     for (i, t) in tris.iter().enumerate() {
-        let ps = t.map(|k| vs[k as usize]);
-        let lo = key(ps[0].min(ps[1]).min(ps[2]));
-        let hi = key(ps[0].max(ps[1]).max(ps[2]));
-        for x in lo.x..=hi.x {
-            for y in lo.y..=hi.y {
-                for z in lo.z..=hi.z {
-                    let Some(list) = grid.get(&glam::IVec3::new(x, y, z)) else {
-                        continue;
-                    };
-                    for &j in list {
-                        if j as usize <= i || seen[j as usize] == i as u32 {
-                            continue;
-                        }
-                        seen[j as usize] = i as u32;
-                        if triangles_cross(vs, *t, tris[j as usize]) {
-                            out.push([i as u32, j]);
-                        }
-                    }
+        for list in cells(t).filter_map(|c| grid.get(&c)) {
+            for &j in list {
+                if j as usize <= i || seen[j as usize] == i as u32 {
+                    continue;
+                }
+                seen[j as usize] = i as u32;
+                if triangles_cross(vs, *t, tris[j as usize]) {
+                    out.push([i as u32, j]);
                 }
             }
         }
