@@ -17,10 +17,10 @@
 use std::collections::HashMap;
 
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
-use cranelift_codegen::ir::types::{F64, F64X2, I32};
+use cranelift_codegen::ir::types::{F64X2, I8X16, I32, I64X2};
 use cranelift_codegen::ir::{
-    AbiParam, Function, InstBuilder, MemFlagsData, SigRef, Signature, StackSlot, StackSlotData,
-    StackSlotKind, Value,
+    AbiParam, ConstantData, Endianness, Function, InstBuilder, MemFlagsData, SigRef, Signature,
+    StackSlot, StackSlotData, StackSlotKind, Value,
 };
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
@@ -49,14 +49,21 @@ impl From<ModuleError> for NativeError {
     }
 }
 
-/// The largest tape Cranelift optimises (`opt_level = speed`); larger ones are compiled
-/// without its e-graph pass, whose time grows faster than the tape. Measured: 1 000
+/// The largest tape Cranelift optimises (`opt_level = speed`) and whose gradient function gets
+/// an unguarded fast copy (see `Emitter::pair`); larger ones are compiled once, without the
+/// e-graph pass, whose time grows faster than the tape. Measured: 1 000
 /// instructions 0.06 s, 2 000 0.19 s, 12 000 11–30 s with it, 0.5–0.8 s without; without it
 /// the gallery's tapes run up to ~25% slower for values, alike for gradients.
 const OPTIMISE_LIMIT: usize = 1024;
 
 /// Points a vector: f64x2.
 const WIDTH: usize = 2;
+
+/// Lanes picked by a shuffle of two vectors: [first's, second's].
+const LOW_LOW: [u8; 2] = [0, 0];
+const LOW_HIGH: [u8; 2] = [0, 1];
+const HIGH_LOW: [u8; 2] = [1, 0];
+const HIGH_HIGH: [u8; 2] = [1, 1];
 
 /// `fn(points, out, pairs)`: `pairs` pairs of points in, one result a point out.
 type BatchFn<T> = unsafe extern "C" fn(*const DVec3, *mut T, usize);
@@ -281,6 +288,8 @@ struct Emitter<'a, 'b> {
     splats: HashMap<u64, Value>,
     /// The scratch memory and the signature of the calls back into `ops`, made at the first.
     scratch: Option<(StackSlot, SigRef)>,
+    /// Whether `term` keeps `ops::term`'s guard (see `pair`).
+    guards: bool,
 }
 
 /// Scratch layout of a call back into `ops`: operand a, operand b, the result; each four
@@ -302,42 +311,90 @@ impl<'a, 'b> Emitter<'a, 'b> {
             gradients,
             splats: HashMap::new(),
             scratch: None,
+            guards: true,
         }
     }
 
     /// Loads pair `at` of `points`, runs the tape, stores the pair's results into `out`.
+    /// Leaves the builder in a block that falls through to the next pair.
+    ///
+    /// With gradients the tape runs first without `ops::term`'s guards (k·d where d = 0 and k
+    /// is ±∞ or NaN gives NaN where the term is 0). Such a NaN always reaches the output:
+    /// every rule combines partials only through terms and sums, and a NaN d keeps k·d NaN.
+    /// So where no output partial is NaN, the guards would have changed nothing but the sign
+    /// of zeros, and the results are stored; otherwise the pair runs again with the guards.
     fn pair(&mut self, points: Value, out: Value, at: Value) {
         // Cannot trap (the caller checked the lengths); not `aligned`: a vector store into
         // `out` is only as aligned as an f64.
         let flags = MemFlagsData::new().with_notrap();
         let base = self.b.ins().imul_imm_u(at, (WIDTH * 24) as i64);
         let base = self.b.ins().iadd(points, base);
-        let mut inputs = [ZERO; 3];
-        for (axis, input) in inputs.iter_mut().enumerate() {
-            let lane0 = self.b.ins().load(F64, flags, base, (axis * 8) as i32);
-            let lane1 = self.b.ins().load(F64, flags, base, (24 + axis * 8) as i32);
-            let v = self.b.ins().splat(F64X2, lane0);
-            *input = Vector(self.b.ins().insertlane(v, lane1, 1));
-        }
-        let mut regs: Vec<Dual> = vec![
-            Dual {
-                v: ZERO,
-                d: [ZERO; 3]
-            };
-            self.tape.registers()
+        // The pair is x0 y0 z0 x1 y1 z1: three vector loads [x0 y0] [z0 x1] [y1 z1], then one
+        // shuffle an input.
+        let [v0, v1, v2] = [0, 16, 32].map(|offset| self.b.ins().load(F64X2, flags, base, offset));
+        let inputs = [
+            self.shuffle(v0, v1, LOW_HIGH),
+            self.shuffle(v0, v2, HIGH_LOW),
+            self.shuffle(v1, v2, LOW_HIGH),
         ];
+        if !self.gradients {
+            let result = self.run_tape(inputs, false);
+            let base = self.b.ins().imul_imm_u(at, (WIDTH * 8) as i64);
+            let base = self.b.ins().iadd(out, base);
+            let v = self.vector(result.v);
+            self.b.ins().store(flags, v, base, 0);
+            return;
+        }
+        let base = self.b.ins().imul_imm_u(at, (WIDTH * 32) as i64);
+        let base = self.b.ins().iadd(out, base);
+        if self.tape.instrs().len() > OPTIMISE_LIMIT {
+            // A large tape: one guarded copy, for half the compile time.
+            let guarded = self.run_tape(inputs, true);
+            let guarded = self.components(guarded);
+            self.store_grads(guarded, base, flags);
+            return;
+        }
+        let fast = self.run_tape(inputs, false);
+        let fast = self.components(fast);
+        let nan = self.mask(FloatCC::Unordered, fast[1], fast[2]);
+        let nan_z = self.mask(FloatCC::Unordered, fast[3], fast[3]);
+        let nan = self.b.ins().bor(nan, nan_z);
+        let nan = self.b.ins().bitcast(I64X2, MemFlagsData::new(), nan);
+        let any_nan = self.b.ins().vany_true(nan);
+        let (guarded, store_fast, done) = (
+            self.b.create_block(),
+            self.b.create_block(),
+            self.b.create_block(),
+        );
+        self.b.ins().brif(any_nan, guarded, &[], store_fast, &[]);
+        self.b.switch_to_block(store_fast);
+        self.store_grads(fast, base, flags);
+        self.b.ins().jump(done, &[]);
+        self.b.switch_to_block(guarded);
+        let slow = self.run_tape(inputs, true);
+        let slow = self.components(slow);
+        self.store_grads(slow, base, flags);
+        self.b.ins().jump(done, &[]);
+        self.b.switch_to_block(done);
+    }
+
+    /// The tape at the inputs' lanes: the output register (values only, unless computing
+    /// gradients; `guards`: whether `ops::term` keeps its zero guard).
+    fn run_tape(&mut self, inputs: [Value; 3], guards: bool) -> Dual {
+        self.guards = guards;
+        let mut regs: Vec<Dual> = vec![Dual::value(ZERO); self.tape.registers()];
         for (axis, input) in inputs.into_iter().enumerate() {
             let mut d = [ZERO; 3];
             if self.gradients {
                 d[axis] = Const(1.0);
             }
-            regs[axis] = Dual { v: input, d };
+            regs[axis] = Dual {
+                v: Vector(input),
+                d,
+            };
         }
         for (k, &c) in self.tape.constants().iter().enumerate() {
-            regs[self.tape.inputs() + k] = Dual {
-                v: Const(c),
-                d: [ZERO; 3],
-            };
+            regs[self.tape.inputs() + k] = Dual::value(Const(c));
         }
         for ins in self.tape.instrs() {
             let a = regs[ins.a.index()];
@@ -345,36 +402,56 @@ impl<'a, 'b> Emitter<'a, 'b> {
                 Arity::Binary => regs[ins.b.index()],
                 _ => Dual::value(ZERO),
             };
-            let r = if self.gradients {
+            regs[ins.out.index()] = if self.gradients {
                 self.grad(ins.op, a, b)
             } else {
-                Dual {
-                    v: self.value(ins.op, a.v, b.v),
-                    d: [ZERO; 3],
-                }
+                Dual::value(self.value(ins.op, a.v, b.v))
             };
-            regs[ins.out.index()] = r;
         }
-        let result = regs[self.tape.outputs()[0].index()];
-        if self.gradients {
-            let base = self.b.ins().imul_imm_u(at, (WIDTH * 32) as i64);
-            let base = self.b.ins().iadd(out, base);
-            let parts = [result.v, result.d[0], result.d[1], result.d[2]];
-            for (c, part) in parts.into_iter().enumerate() {
-                let part = self.vector(part);
-                for lane in 0..WIDTH {
-                    let x = self.b.ins().extractlane(part, lane as u8);
-                    self.b
-                        .ins()
-                        .store(flags, x, base, (lane * 32 + c * 8) as i32);
-                }
-            }
-        } else {
-            let base = self.b.ins().imul_imm_u(at, (WIDTH * 8) as i64);
-            let base = self.b.ins().iadd(out, base);
-            let v = self.vector(result.v);
-            self.b.ins().store(flags, v, base, 0);
+        regs[self.tape.outputs()[0].index()]
+    }
+
+    /// Value and partials as vectors.
+    fn components(&mut self, r: Dual) -> [Value; 4] {
+        [r.v, r.d[0], r.d[1], r.d[2]].map(|x| self.vector(x))
+    }
+
+    /// Stores a pair's values and gradients: each point's ValueGrad is [v dx] [dy dz], the
+    /// low lanes first, then the high lanes.
+    fn store_grads(&mut self, [v, dx, dy, dz]: [Value; 4], base: Value, flags: MemFlagsData) {
+        let stores = [
+            (v, dx, LOW_LOW, 0),
+            (dy, dz, LOW_LOW, 16),
+            (v, dx, HIGH_HIGH, 32),
+            (dy, dz, HIGH_HIGH, 48),
+        ];
+        for (a, b, lanes, offset) in stores {
+            let x = self.shuffle(a, b, lanes);
+            self.b.ins().store(flags, x, base, offset);
         }
+    }
+
+    /// [a's lane, b's lane], each lane 0 or 1 as `lanes` says.
+    fn shuffle(&mut self, a: Value, b: Value, lanes: [u8; 2]) -> Value {
+        // Cranelift shuffles bytes: 0–15 name a's, 16–31 b's.
+        let mut bytes = [0u8; 16];
+        for (i, byte) in bytes.iter_mut().enumerate() {
+            let (from_b, lane) = (i / 8, lanes[i / 8]);
+            *byte = from_b as u8 * 16 + lane * 8 + (i % 8) as u8;
+        }
+        let mask = self
+            .b
+            .func
+            .dfg
+            .immediates
+            .push(ConstantData::from(&bytes[..]));
+        let lanes = MemFlagsData::new().with_endianness(Endianness::Little);
+        let (a, b) = (
+            self.b.ins().bitcast(I8X16, lanes, a),
+            self.b.ins().bitcast(I8X16, lanes, b),
+        );
+        let x = self.b.ins().shuffle(a, b, mask);
+        self.b.ins().bitcast(F64X2, lanes, x)
     }
 
     /// The lanes as a vector.
@@ -400,7 +477,12 @@ impl<'a, 'b> Emitter<'a, 'b> {
         let va = self.vector(a);
         let vb = if unary { va } else { self.vector(b) };
         Vector(match op {
-            Op::Neg => self.b.ins().fneg(va),
+            // Flipping the sign bit with a shared constant: one instruction, where `fneg`
+            // builds its mask each time.
+            Op::Neg => {
+                let sign = self.vector(Const(-0.0));
+                self.b.ins().bxor(va, sign)
+            }
             Op::Square => self.b.ins().fmul(va, va),
             Op::Sqrt => self.b.ins().sqrt(va),
             Op::Abs => self.b.ins().fabs(va),
@@ -443,7 +525,7 @@ impl<'a, 'b> Emitter<'a, 'b> {
         }
         // A non-zero constant d: k·d is the term. A finite constant k: k·d differs from the
         // term at most in the sign of a zero.
-        if matches!(d, Const(_)) || matches!(k, Const(c) if c.is_finite()) {
+        if !self.guards || matches!(d, Const(_)) || matches!(k, Const(c) if c.is_finite()) {
             return self.value(Op::Mul, k, d);
         }
         let p = self.value(Op::Mul, k, d);
