@@ -3,9 +3,10 @@
 //!
 //! `syntax` (text → AST) → `sema` (names, kinds, diagnostics) → `compile` (IR → tape) →
 //! `eval` (VM: value, gradient) → `surface` (the oracle the marcher sees) → `solve`
-//! (surfacepoint, foot points, curves) → `march` (the marching method) → `mesh` (Mesh,
-//! report, writers, pictures). `diag` renders diagnostics; `cli` is the only module that
-//! knows every stage.
+//! (surfacepoint, foot points, curves) → `survey` (what the marcher learns of a surface
+//! before marching: intervals and components, the local step, creases) → `march` (the
+//! marching method) → `mesh` (Mesh, report, writers, pictures). `diag` renders
+//! diagnostics; `cli` is the only module that knows every stage.
 //!
 //! The numeric half (`eval` onward) imports nothing from `syntax`, `sema` or `diag`.
 
@@ -19,4 +20,5 @@ pub mod sema;
 pub mod solve;
 pub mod span;
 pub mod surface;
+pub mod survey;
 pub mod syntax;
