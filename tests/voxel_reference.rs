@@ -24,9 +24,9 @@ fn solid_torus_has_euler_zero_and_thin_tube_needs_a_fine_grid() {
     let (lo, hi) = cube(1.5);
     let c = solid_count(torus(0.3), lo, hi, 40);
     assert_eq!((c.euler, c.components), (0, 1));
-    // A tube of radius 0.05 falls between the vertices of a 40-cell grid (spacing 0.075) but
-    // not of a 150-cell one (spacing 0.02).
-    let coarse = solid_count(torus(0.05), lo, hi, 40);
+    // A tube of radius 0.05 falls between the vertices of a 10-cell grid (spacing 0.3) but
+    // not of a 150-cell one (spacing 0.02): the grid must be finer than the feature.
+    let coarse = solid_count(torus(0.05), lo, hi, 10);
     assert_ne!((coarse.euler, coarse.components), (0, 1));
     let fine = solid_count(torus(0.05), lo, hi, 150);
     assert_eq!((fine.euler, fine.components), (0, 1));
