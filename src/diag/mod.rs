@@ -112,6 +112,12 @@ pub fn has_errors(diags: &[Diagnostic]) -> bool {
 /// and column (a megabyte-long line would otherwise be printed once per label).
 const MAX_QUOTED_LINE: usize = 1000;
 
+/// The 1-based line and column (in characters) of a byte offset into `source`.
+pub fn line_column(source: &str, offset: usize) -> (usize, usize) {
+    let (line, column, _) = locate(source, offset);
+    (line, column)
+}
+
 /// The 1-based line and column of `offset`, and the length of its line.
 fn locate(source: &str, offset: usize) -> (usize, usize, usize) {
     let offset = offset.min(source.len());

@@ -27,6 +27,7 @@ pub struct NamedMesh<'a> {
     pub mesh: &'a Mesh,
 }
 
+pub mod read;
 pub mod render;
 pub mod summary;
 pub mod write;
