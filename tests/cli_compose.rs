@@ -308,8 +308,7 @@ fn render_draws_mesh_files_of_every_readable_format() {
     );
     assert_eq!(code, 0, "{stderr}");
     let direct = std::fs::read(dir.path().join("direct.png")).expect("direct.png");
-    for format in ["obj", "ply", "off", "3mf"] {
-        // The exact formats give back the same vertices, so the same picture.
+    for format in ["obj", "ply", "off", "3mf", "stl", "glb"] {
         let mesh = format!("ball.{format}");
         let (code, _, stderr) = surfc(&["mesh", "ball.surf", "-o", &mesh, "-q"], dir.path());
         assert_eq!(code, 0, "{stderr}");
@@ -320,25 +319,17 @@ fn render_draws_mesh_files_of_every_readable_format() {
         );
         assert_eq!(code, 0, "{format}: {stderr}");
         let picture = std::fs::read(dir.path().join(&png)).expect("the picture");
-        assert_eq!(picture, direct, "{format}");
-    }
-    for format in ["stl", "glb"] {
-        // f32 formats: a picture of the same size, not necessarily the same pixels.
-        let mesh = format!("ball.{format}");
-        let (code, _, _) = surfc(&["mesh", "ball.surf", "-o", &mesh, "-q"], dir.path());
-        assert_eq!(code, 0);
-        let png = format!("{format}.png");
-        let (code, _, stderr) = surfc(
-            &["render", &mesh, "-o", &png, "--size", "120x90"],
-            dir.path(),
-        );
-        assert_eq!(code, 0, "{format}: {stderr}");
-        let picture = std::fs::read(dir.path().join(&png)).expect("the picture");
-        assert_eq!(
-            picture[..24],
-            direct[..24],
-            "{format}: the PNG header and size"
-        );
+        if matches!(format, "stl" | "glb") {
+            // f32 formats: a picture of the same size, not necessarily the same pixels.
+            assert_eq!(
+                picture[..24],
+                direct[..24],
+                "{format}: the PNG header and size"
+            );
+        } else {
+            // The exact formats give back the same vertices, so the same picture.
+            assert_eq!(picture, direct, "{format}");
+        }
     }
     // A mesh file that is not one: exit 1 naming it; an unknown --only: exit 2.
     std::fs::write(dir.path().join("junk.obj"), b"f 1 2 3\n").expect("written");

@@ -737,3 +737,49 @@ mod round_trip {
         }
     }
 }
+
+/// `surfc render MESHFILE`'s readers give back the triangles written: corner for corner,
+/// exactly for the text and f64 formats, to f32 rounding for STL and GLB (GLB through its
+/// node rotation and back, so the model is z-up again).
+#[test]
+fn surfc_reads_back_the_formats_it_draws() {
+    use surfc::mesh::read::read_mesh;
+
+    let sphere = icosphere(2, 2.0);
+    let meshes = [NamedMesh {
+        name: "sphere",
+        mesh: &sphere,
+    }];
+    for format in [
+        Format::Obj,
+        Format::Ply,
+        Format::Off,
+        Format::ThreeMf,
+        Format::Stl,
+        Format::Glb,
+    ] {
+        let data = bytes(format_writer(format), &meshes);
+        let read = read_mesh(&data, format).unwrap_or_else(|e| panic!("{format}: {e}"));
+        assert_eq!(read.len(), 1, "{format}");
+        let (name, mesh) = &read[0];
+        if matches!(format, Format::Obj | Format::Glb | Format::ThreeMf) {
+            assert_eq!(name, "sphere", "{format}");
+        }
+        assert_eq!(mesh.triangles.len(), sphere.triangles.len(), "{format}");
+        let tolerance = if matches!(format, Format::Stl | Format::Glb) {
+            1e-6
+        } else {
+            0.0
+        };
+        for (t, (got, want)) in mesh.triangles.iter().zip(&sphere.triangles).enumerate() {
+            for k in 0..3 {
+                let a = mesh.vertices[got[k] as usize];
+                let b = sphere.vertices[want[k] as usize];
+                assert!(
+                    a.distance(b) <= tolerance,
+                    "{format}: triangle {t} corner {k}: {a} read, {b} written"
+                );
+            }
+        }
+    }
+}

@@ -6,12 +6,12 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-mod build;
+pub(crate) mod build;
 mod bytecode;
 mod check;
 mod eval;
 mod fmt;
-mod load;
+pub(crate) mod load;
 pub mod mesh;
 mod render;
 mod report;

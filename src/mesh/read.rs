@@ -353,30 +353,12 @@ fn read_3mf(bytes: &[u8]) -> Result<Vec<(String, Mesh)>, String> {
             }
             "vertex" => {
                 let (name, mesh) = current.as_mut().ok_or("a vertex outside an object")?;
-                let mut xyz = [0.0; 3];
-                for (x, key) in xyz.iter_mut().zip(["x", "y", "z"]) {
-                    let value = tag
-                        .attribute(key)
-                        .ok_or_else(|| format!("`{name}`: a vertex without `{key}`"))?;
-                    *x = value
-                        .trim()
-                        .parse()
-                        .map_err(|e| format!("`{name}`: `{value}`: {e}"))?;
-                }
+                let xyz: [f64; 3] = numbers(&tag, ["x", "y", "z"], name, "vertex")?;
                 mesh.vertices.push(DVec3::from_array(xyz));
             }
             "triangle" => {
                 let (name, mesh) = current.as_mut().ok_or("a triangle outside an object")?;
-                let mut corners = [0u32; 3];
-                for (v, key) in corners.iter_mut().zip(["v1", "v2", "v3"]) {
-                    let value = tag
-                        .attribute(key)
-                        .ok_or_else(|| format!("`{name}`: a triangle without `{key}`"))?;
-                    *v = value
-                        .trim()
-                        .parse()
-                        .map_err(|e| format!("`{name}`: `{value}`: {e}"))?;
-                }
+                let corners: [u32; 3] = numbers(&tag, ["v1", "v2", "v3"], name, "triangle")?;
                 mesh.triangles.push(corners);
             }
             _ => {}
@@ -385,6 +367,33 @@ fn read_3mf(bytes: &[u8]) -> Result<Vec<(String, Mesh)>, String> {
     // Objects without a mesh (components only) draw nothing.
     meshes.retain(|(_, m)| !m.triangles.is_empty());
     Ok(meshes)
+}
+
+/// The three numbers a tag holds in the attributes `keys`; Err names the object and what is
+/// wrong.
+fn numbers<T: std::str::FromStr>(
+    tag: &Tag,
+    keys: [&str; 3],
+    object: &str,
+    what: &str,
+) -> Result<[T; 3], String>
+where
+    T::Err: std::fmt::Display,
+{
+    let mut values = Vec::with_capacity(3);
+    for key in keys {
+        let value = tag
+            .attribute(key)
+            .ok_or_else(|| format!("`{object}`: a {what} without `{key}`"))?;
+        let number = value
+            .trim()
+            .parse()
+            .map_err(|e| format!("`{object}`: `{value}`: {e}"))?;
+        values.push(number);
+    }
+    values
+        .try_into()
+        .map_err(|_| format!("`{object}`: a {what} without three numbers"))
 }
 
 /// One XML tag: its name (without namespace prefix), whether it ends an element (`</a>`) or
