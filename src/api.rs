@@ -9,13 +9,13 @@ use glam::DVec3;
 
 use crate::cli::build::Builder;
 use crate::diag;
+use crate::eval::Engine;
 use crate::sema::program::{Program, SurfaceId, SurfaceRef};
 use crate::surface::Surface;
 use crate::surface::compiled::CompiledSurface;
 
 pub use crate::cli::mesh::Meshed;
 pub use crate::diag::{Diagnostic, Severity};
-pub use crate::eval::Engine;
 pub use crate::mesh::quality::{MeshReport, MeshStats};
 pub use crate::mesh::write::Format;
 pub use crate::mesh::{Mesh, NamedMesh};

@@ -38,8 +38,8 @@
 mod api;
 
 pub use api::{
-    Checked, CompileError, Diagnostic, Engine, Errors, Format, Function, Mesh, MeshReport,
-    MeshStats, Meshed, NamedMesh, Severity, check, named, write_mesh,
+    Checked, CompileError, Diagnostic, Errors, Format, Function, Mesh, MeshReport, MeshStats,
+    Meshed, NamedMesh, Severity, check, named, write_mesh,
 };
 
 #[doc(hidden)]

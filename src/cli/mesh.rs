@@ -104,13 +104,19 @@ struct MeshJson<'a> {
 /// A mesh block that was meshed.
 #[derive(Clone, Debug)]
 pub struct Meshed {
+    /// The mesh block's name.
     pub name: String,
+    /// The name of the surface it meshes, or the text of its expression.
     pub surface: String,
+    /// The block's `step`.
     pub step: f64,
     /// The block's `box`, if it has one.
     pub bbox: Option<(DVec3, DVec3)>,
+    /// The triangles.
     pub mesh: Mesh,
+    /// Topology and quality of the triangles (the figures of `surfc mesh --json`).
     pub report: MeshReport,
+    /// Wall-clock time to build and mesh the block, in seconds.
     pub seconds: f64,
 }
 

@@ -124,15 +124,25 @@ pub fn max_vertex_error(mesh: &Mesh, surface: &mut dyn Surface) -> f64 {
 /// step and seconds.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MeshReport {
+    /// Vertices used by triangles.
     pub vertices: usize,
+    /// Triangles.
     pub triangles: usize,
+    /// Edges of exactly one triangle.
     pub boundary_edges: usize,
+    /// Closed polygons of boundary edges.
     pub boundary_loops: usize,
+    /// Edges of more than two triangles.
     pub non_manifold_edges: usize,
+    /// V − E + F.
     pub euler_characteristic: i64,
+    /// Edge-connected components.
     pub components: usize,
+    /// The smallest angle of any triangle, degrees.
     pub min_angle_deg: f64,
+    /// max |f|/|∇f| over the vertices.
     pub max_vertex_error: f64,
+    /// Shape statistics of the triangles.
     #[serde(flatten)]
     pub stats: MeshStats,
 }
@@ -141,13 +151,21 @@ pub struct MeshReport {
 /// the triangles' smallest angles, radius ratios, edge lengths.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MeshStats {
+    /// 1st percentile of the triangles' smallest angles, degrees.
     pub min_angle_p1_deg: f64,
+    /// 5th percentile of the triangles' smallest angles, degrees.
     pub min_angle_p5_deg: f64,
+    /// Median of the triangles' smallest angles, degrees.
     pub min_angle_median_deg: f64,
+    /// Mean of 2·inradius/circumradius over the triangles (1: equilateral).
     pub radius_ratio_mean: f64,
+    /// Smallest 2·inradius/circumradius of any triangle.
     pub radius_ratio_min: f64,
+    /// Shortest edge.
     pub edge_min: f64,
+    /// Mean edge length (over every triangle's three edges).
     pub edge_mean: f64,
+    /// Longest edge.
     pub edge_max: f64,
 }
 

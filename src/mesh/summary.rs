@@ -282,6 +282,17 @@ cap                      12    0 ms  1 boundary loop, 2 non-manifold edges
     }
 
     #[test]
+    fn the_estimate_covers_half_the_box_surface() {
+        // A 2 × 2 × 1 box: half its surface is 4 + 2 + 2 = 8; a triangle of edge 0.1 has
+        // the area √3/4 · 0.01.
+        let estimate = estimate_triangles(0.1, DVec3::new(-1.0, -1.0, 0.0), DVec3::ONE);
+        let expected = 8.0 / (3f64.sqrt() / 4.0 * 0.01);
+        assert_eq!(estimate, Some(expected as u64));
+        assert_eq!(estimate_triangles(0.1, DVec3::ONE, DVec3::ONE), None);
+        assert_eq!(estimate_triangles(f64::NAN, DVec3::ZERO, DVec3::ONE), None);
+    }
+
+    #[test]
     fn a_quiet_or_piped_spinner_never_draws() {
         // Quiet: no timer at all. Otherwise (terminal or not) nothing shows in the first half
         // second, and finishing early stops the timer before it fires.
