@@ -217,6 +217,28 @@ fn json_failures_print_errors_on_stdout() {
     let json: serde_json::Value = serde_json::from_slice(&stdout).expect("JSON");
     assert_eq!(json["errors"][0]["code"], "E0601");
     assert_eq!(json["errors"][0]["line"], 2);
+
+    // eval --json too: an unknown surface, and a file with errors.
+    let (code, stdout, _) = surfc(
+        &["eval", "never.surf", "t", "0", "0", "0", "--json"],
+        dir.path(),
+    );
+    assert_eq!(code, 1);
+    let json: serde_json::Value = serde_json::from_slice(&stdout).expect("JSON");
+    assert_eq!(json["errors"][0]["code"], "input");
+    assert!(
+        json["errors"][0]["message"]
+            .as_str()
+            .is_some_and(|m| m.contains("no surface `t`")),
+        "{json}"
+    );
+    let (code, stdout, _) = surfc(
+        &["eval", "bad.surf", "s", "0", "0", "0", "--json"],
+        dir.path(),
+    );
+    assert_eq!(code, 1);
+    let json: serde_json::Value = serde_json::from_slice(&stdout).expect("JSON");
+    assert_eq!(json["errors"][0]["line"], 1);
 }
 
 #[test]
