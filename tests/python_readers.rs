@@ -10,6 +10,7 @@
 mod output_fixtures;
 
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::Path;
 use std::process::Command;
 
@@ -55,7 +56,10 @@ fn python_readers_available() -> bool {
             !required,
             "SURFC_REQUIRE_PY_READERS=1 but python3 with meshio, trimesh, lxml and networkx is not available"
         );
-        eprintln!(
+        // Straight to the stderr handle: libtest captures `eprintln!` of passing tests, and
+        // this must be seen.
+        let _ = writeln!(
+            std::io::stderr(),
             "\n*** SKIPPED: python3 with meshio, trimesh, lxml and networkx is not available; the \
              MSH, VTU, 3MF and OBJ files are NOT checked by independent readers. \
              `pip install meshio trimesh lxml networkx` (or run .ci/run) to check them. ***\n"
