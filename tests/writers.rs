@@ -13,8 +13,8 @@ use std::path::Path;
 use glam::DVec3;
 use output_fixtures::{grid_patch, icosphere, no_triangles, shared_pair, tricky_numbers};
 use surfc::mesh::write::{
-    Format, InvalidMesh, WriteError, write_atomic, write_glb, write_mesh_file, write_obj,
-    write_off, write_ply, write_stl,
+    Format, GLB_ROOT_NODE, InvalidMesh, WriteError, write_3mf, write_atomic, write_glb,
+    write_mesh_file, write_msh, write_obj, write_off, write_ply, write_stl, write_vtu,
 };
 use surfc::mesh::{Mesh, NamedMesh};
 
@@ -91,9 +91,33 @@ impl Cases {
     }
 }
 
+/// The normal an OBJ holds for each position (by bits): the mesh's own where every mesh
+/// using the position agrees, else the normalised sum over the meshes (docs/formats.md).
+fn obj_normals(meshes: &[NamedMesh]) -> std::collections::HashMap<[u64; 3], DVec3> {
+    let mut all: std::collections::HashMap<[u64; 3], Vec<DVec3>> = Default::default();
+    for m in meshes {
+        for (v, n) in m.mesh.vertices.iter().zip(&m.mesh.normals) {
+            all.entry(bits(*v)).or_default().push(*n);
+        }
+    }
+    all.into_iter()
+        .map(|(k, normals)| {
+            let agree = normals.iter().all(|n| bits(*n) == bits(normals[0]));
+            let sum: DVec3 = normals.iter().sum();
+            let n = if agree {
+                normals[0]
+            } else {
+                sum.try_normalize().unwrap_or(normals[0])
+            };
+            (k, n)
+        })
+        .collect()
+}
+
 /// Reads an OBJ with tobj (positions as f64) and checks every object against its mesh:
-/// exact corner positions and normals, triangle by triangle, in the written winding.
+/// exact corner positions and their normals, triangle by triangle, in the written winding.
 fn check_obj_with_tobj(text: &[u8], meshes: &[NamedMesh]) {
+    let normals = obj_normals(meshes);
     let options = tobj::LoadOptions {
         single_index: false,
         triangulate: false,
@@ -123,8 +147,9 @@ fn check_obj_with_tobj(text: &[u8], meshes: &[NamedMesh]) {
             for (j, &v) in tri.iter().enumerate() {
                 let p = read(&m.positions, m.indices[3 * k + j]);
                 let n = read(&m.normals, m.normal_indices[3 * k + j]);
-                assert_eq!(bits(p), bits(named.mesh.vertices[v as usize]));
-                assert_eq!(bits(n), bits(named.mesh.normals[v as usize]));
+                let position = named.mesh.vertices[v as usize];
+                assert_eq!(bits(p), bits(position));
+                assert_eq!(bits(n), bits(normals[&bits(position)]));
             }
         }
     }
@@ -170,7 +195,7 @@ fn obj_coordinates_round_trip_through_str_parse() {
 }
 
 #[test]
-fn obj_shares_positions_between_meshes_but_not_normals() {
+fn obj_shares_positions_between_meshes_with_one_normal_each() {
     let (left, right) = shared_pair(6);
     let meshes = [
         NamedMesh {
@@ -190,8 +215,13 @@ fn obj_shares_positions_between_meshes_but_not_normals() {
         left.vertices.len() + right.vertices.len() - 7
     );
     assert_eq!(positions.len(), distinct_positions(&meshes));
+    // One normal per position, as readers that take normals for point data need.
     let normals = text.lines().filter(|l| l.starts_with("vn ")).count();
-    assert_eq!(normals, left.vertices.len() + right.vertices.len());
+    assert_eq!(normals, positions.len());
+    // Each object is an `o` and a `g` of its name.
+    for name in ["left", "right"] {
+        assert!(text.contains(&format!("\no {name}\ng {name}\n")), "{text}");
+    }
 
     // The faces of both objects that touch x = 0 use the same `v` indices there.
     let mut on_polygon: Vec<BTreeSet<usize>> = Vec::new();
@@ -377,11 +407,26 @@ fn glb_imports_with_gltf_to_f32_precision() {
         data.len()
     );
     let (document, buffers, _) = gltf::import_slice(&data).expect("gltf imports the GLB");
-    let nodes: Vec<_> = document.nodes().collect();
+    // The scene is one root node, turned from z up to glTF's y up, holding the meshes.
+    let scene = document.default_scene().expect("a default scene");
+    let roots: Vec<_> = scene.nodes().collect();
+    assert_eq!(roots.len(), 1);
+    assert_eq!(roots[0].name(), Some(GLB_ROOT_NODE));
+    let (_, rotation, scale) = roots[0].transform().decomposed();
+    assert_eq!(scale, [1.0; 3]);
+    // The rotation takes the model's +z to +y and +y to −z.
+    let q = glam::Quat::from_array(rotation);
+    assert!((q * glam::Vec3::Z).distance(glam::Vec3::Y) < 1e-6);
+    assert!((q * glam::Vec3::Y).distance(-glam::Vec3::Z) < 1e-6);
+    let nodes: Vec<_> = roots[0].children().collect();
     assert_eq!(
         nodes.iter().map(|n| n.name()).collect::<Vec<_>>(),
         meshes.iter().map(|m| Some(m.name)).collect::<Vec<_>>()
     );
+    // One material, double-sided, on every primitive.
+    assert_eq!(document.materials().count(), 1);
+    let material = document.materials().next().expect("a material");
+    assert!(material.double_sided());
     for (node, named) in nodes.iter().zip(&meshes) {
         let Some(mesh) = node.mesh() else {
             assert!(named.mesh.triangles.is_empty(), "{} lost", named.name);
@@ -392,6 +437,12 @@ fn glb_imports_with_gltf_to_f32_precision() {
         assert_eq!(primitives.len(), 1);
         let primitive = &primitives[0];
         assert_eq!(primitive.mode(), gltf::mesh::Mode::Triangles);
+        assert_eq!(primitive.material().index(), Some(0));
+        // The data are the model's own coordinates: only the node turns them.
+        assert_eq!(
+            node.transform().decomposed(),
+            ([0.0; 3], [0.0, 0.0, 0.0, 1.0], [1.0; 3])
+        );
         let reader = primitive.reader(|b| Some(&buffers[b.index()]));
         let positions: Vec<[f32; 3]> = reader.read_positions().expect("positions").collect();
         let normals: Vec<[f32; 3]> = reader.read_normals().expect("normals").collect();
@@ -529,6 +580,9 @@ fn format_writer(format: Format) -> fn(&mut dyn Write, &[NamedMesh]) -> io::Resu
         Format::Ply => write_ply,
         Format::Off => write_off,
         Format::Glb => write_glb,
+        Format::ThreeMf => write_3mf,
+        Format::Msh => write_msh,
+        Format::Vtu => write_vtu,
     }
 }
 
@@ -679,6 +733,52 @@ mod round_trip {
                 for j in 0..3 {
                     prop_assert_eq!(bits(positions[read[j]]), bits(mesh.vertices[tri[j] as usize]));
                 }
+            }
+        }
+    }
+}
+
+/// `surfc render MESHFILE`'s readers give back the triangles written: corner for corner,
+/// exactly for the text and f64 formats, to f32 rounding for STL and GLB (GLB through its
+/// node rotation and back, so the model is z-up again).
+#[test]
+fn surfc_reads_back_the_formats_it_draws() {
+    use surfc::mesh::read::read_mesh;
+
+    let sphere = icosphere(2, 2.0);
+    let meshes = [NamedMesh {
+        name: "sphere",
+        mesh: &sphere,
+    }];
+    for format in [
+        Format::Obj,
+        Format::Ply,
+        Format::Off,
+        Format::ThreeMf,
+        Format::Stl,
+        Format::Glb,
+    ] {
+        let data = bytes(format_writer(format), &meshes);
+        let read = read_mesh(&data, format).unwrap_or_else(|e| panic!("{format}: {e}"));
+        assert_eq!(read.len(), 1, "{format}");
+        let (name, mesh) = &read[0];
+        if matches!(format, Format::Obj | Format::Glb | Format::ThreeMf) {
+            assert_eq!(name, "sphere", "{format}");
+        }
+        assert_eq!(mesh.triangles.len(), sphere.triangles.len(), "{format}");
+        let tolerance = if matches!(format, Format::Stl | Format::Glb) {
+            1e-6
+        } else {
+            0.0
+        };
+        for (t, (got, want)) in mesh.triangles.iter().zip(&sphere.triangles).enumerate() {
+            for k in 0..3 {
+                let a = mesh.vertices[got[k] as usize];
+                let b = sphere.vertices[want[k] as usize];
+                assert!(
+                    a.distance(b) <= tolerance,
+                    "{format}: triangle {t} corner {k}: {a} read, {b} written"
+                );
             }
         }
     }

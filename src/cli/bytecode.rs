@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use super::ColorMode;
-use super::eval::{load_surface, report_compile_error};
+use super::eval::{compile_failure, load_surface};
 use crate::compile;
 use crate::sema::program::SurfaceRef;
 
@@ -17,11 +17,11 @@ pub struct BytecodeArgs {
 pub fn run(args: BytecodeArgs, color: ColorMode) -> u8 {
     let (loaded, id) = match load_surface(&args.file, &args.surface, color) {
         Ok(found) => found,
-        Err(code) => return code,
+        Err(failure) => return failure.exit,
     };
     let lowered = match compile::lower_surface(&loaded.program, &SurfaceRef::Surface(id)) {
         Ok(l) => l,
-        Err(e) => return report_compile_error(&e),
+        Err(e) => return compile_failure(&e).exit,
     };
     super::print_stdout(&compile::listing(&loaded.program, &lowered))
 }

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 
 use super::load::Loaded;
+use super::report::{CODE_INPUT, Failure};
 use super::{ColorMode, EXIT_INPUT, EngineChoice};
 use crate::compile::CompileError;
 use crate::sema::program::{Program, SurfaceId, SurfaceRef};
@@ -19,7 +20,8 @@ pub struct EvalArgs {
     pub x: f64,
     pub y: f64,
     pub z: f64,
-    /// Print one JSON object `{"value": V, "gradient": [GX, GY, GZ]}`.
+    /// Print one JSON object `{"value": V, "gradient": [GX, GY, GZ]}` (on failure:
+    /// `{"errors": [...]}`).
     #[arg(long)]
     pub json: bool,
     /// How surfaces are evaluated: machine code compiled from the tape, or the interpreter.
@@ -27,51 +29,55 @@ pub struct EvalArgs {
     pub engine: EngineChoice,
 }
 
-/// The id of the surface called `name`, or a message listing the known surfaces and
-/// `EXIT_INPUT`.
-fn find_surface(program: &Program, name: &str) -> Result<SurfaceId, u8> {
+/// The id of the surface called `name`, or a failure (exit 1) listing the known surfaces.
+fn find_surface(program: &Program, name: &str, file: &Path) -> Result<SurfaceId, Failure> {
     if let Some(i) = program.surfaces.iter().position(|s| s.name == name) {
         return Ok(SurfaceId(i as u32));
     }
     let known: Vec<&str> = program.surfaces.iter().map(|s| s.name.as_str()).collect();
-    if known.is_empty() {
-        eprintln!("error: no surface `{name}`: the file defines no surfaces");
+    let message = if known.is_empty() {
+        format!("no surface `{name}`: the file defines no surfaces")
     } else {
-        eprintln!(
-            "error: no surface `{name}`; the file defines: {}",
+        format!(
+            "no surface `{name}`; the file defines: {}",
             known.join(", ")
-        );
-    }
-    Err(EXIT_INPUT)
+        )
+    };
+    Err(Failure::new(EXIT_INPUT, CODE_INPUT, message, Some(file)))
 }
 
-/// The file, checked, and the id of its surface `name`; else the exit code (the diagnostics or
-/// the message are printed).
+/// The file, checked, and the id of its surface `name`; else the failure (the diagnostics
+/// or the message are printed).
 pub(crate) fn load_surface(
     file: &Path,
     name: &str,
     color: ColorMode,
-) -> Result<(Loaded, SurfaceId), u8> {
-    let loaded = super::load::load(file, color)?;
-    let id = find_surface(&loaded.program, name)?;
+) -> Result<(Loaded, SurfaceId), Failure> {
+    let loaded = super::load::load_reported(file, color)?;
+    let id = find_surface(&loaded.program, name, file)?;
     Ok((loaded, id))
 }
 
-pub(crate) fn report_compile_error(e: &CompileError) -> u8 {
-    eprintln!("error: cannot compile the surface: {e}");
-    EXIT_INPUT
+/// A surface that could not be compiled (exit 1).
+pub(crate) fn compile_failure(e: &CompileError) -> Failure {
+    Failure::new(
+        EXIT_INPUT,
+        CODE_INPUT,
+        format!("cannot compile the surface: {e}"),
+        None,
+    )
 }
 
 pub fn run(args: EvalArgs, color: ColorMode) -> u8 {
     let (loaded, id) = match load_surface(&args.file, &args.surface, color) {
         Ok(found) => found,
-        Err(code) => return code,
+        Err(failure) => return failure.finish(args.json),
     };
     // dist() children measure their tolerances against a unit length: eval has no step.
     let builder = super::build::Builder::new(&loaded.program, args.engine.into());
     let mut surface = match builder.surface(&SurfaceRef::Surface(id), 1.0) {
         Ok(s) => s,
-        Err(e) => return report_compile_error(&e),
+        Err(e) => return compile_failure(&e).finish(args.json),
     };
     let p = DVec3::new(args.x, args.y, args.z);
     let vg = surface.value_gradient(p);

@@ -1,14 +1,15 @@
 //! Reading, parsing and checking one `.surf` file for a command: every diagnostic (warnings
 //! too) goes to stderr; the checked program comes back only if there is no error.
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Read};
 use std::path::{Path, PathBuf};
 
 use crate::diag::{self, Diagnostic};
 use crate::sema::{self, program::Program};
 use crate::syntax::{self, ast};
 
-use super::{ColorMode, EXIT_INPUT, EXIT_USAGE};
+use super::ColorMode;
+use super::report::Failure;
 
 /// A file that parsed and checked without errors.
 // The mesh, eval and bytecode commands read the fields; until they land, `check` does not.
@@ -30,29 +31,54 @@ pub(crate) fn stderr_color(color: ColorMode) -> bool {
     }
 }
 
-/// Reads a file as text. A missing or unreadable file is a message and `EXIT_USAGE`; a file
-/// that is not UTF-8 is a diagnostic (E0009) and `EXIT_INPUT`.
-pub(crate) fn read(path: &Path, color: ColorMode) -> Result<String, u8> {
-    let bytes = match std::fs::read(path) {
-        Ok(b) => b,
-        Err(e) => {
-            eprintln!("error: cannot read `{}`: {e}", path.display());
-            return Err(EXIT_USAGE);
-        }
+/// The name standard input goes by in diagnostics and messages.
+pub(crate) const STDIN_NAME: &str = "<stdin>";
+
+/// Whether a FILE argument means standard input (`-`).
+pub(crate) fn is_stdin(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// The name of an input in messages: its path, or `<stdin>`.
+pub(crate) fn input_name(path: &Path) -> String {
+    if is_stdin(path) {
+        STDIN_NAME.to_owned()
+    } else {
+        path.display().to_string()
+    }
+}
+
+/// Reads a file (or standard input, for `-`) as text. A missing or unreadable file is an I/O
+/// failure (exit 2); a file that is not UTF-8 is a diagnostic (E0009, exit 1).
+pub(crate) fn read_source(path: &Path, color: ColorMode) -> Result<String, Failure> {
+    let bytes = if is_stdin(path) {
+        let mut bytes = Vec::new();
+        std::io::stdin()
+            .lock()
+            .read_to_end(&mut bytes)
+            .map(|_| bytes)
+    } else {
+        std::fs::read(path)
     };
+    let bytes =
+        bytes.map_err(|e| Failure::io(format!("cannot read `{}`: {e}", input_name(path)), path))?;
     match syntax::source_text(&bytes) {
         Ok(s) => Ok(s.to_string()),
         Err(d) => {
             let lossy = String::from_utf8_lossy(&bytes);
-            diag::emit_stderr(
+            Err(Failure::diagnostics(
                 &[d],
-                &path.display().to_string(),
+                &input_name(path),
                 &lossy,
                 stderr_color(color),
-            );
-            Err(EXIT_INPUT)
+            ))
         }
     }
+}
+
+/// [`read_source`] for commands that need only the exit code.
+pub(crate) fn read(path: &Path, color: ColorMode) -> Result<String, u8> {
+    read_source(path, color).map_err(|f| f.exit)
 }
 
 /// Parses and checks source text; returns the AST, the program (if the file parsed) and
@@ -67,26 +93,34 @@ pub(crate) fn analyse(source: &str) -> (Option<(ast::File, Program)>, Vec<Diagno
     (Some((file, program)), diags)
 }
 
-/// Reads, parses and checks `path`, printing every diagnostic to stderr. Err(exit code) if the
-/// file cannot be read (2) or has errors (1).
-pub(crate) fn load(path: &Path, color: ColorMode) -> Result<Loaded, u8> {
-    let source = read(path, color)?;
+/// Reads, parses and checks `path` (`-`: standard input), printing every diagnostic to
+/// stderr. Err if the file cannot be read (exit 2) or has errors (exit 1).
+pub(crate) fn load_reported(path: &Path, color: ColorMode) -> Result<Loaded, Failure> {
+    let source = read_source(path, color)?;
     let (checked, diags) = analyse(&source);
-    if !diags.is_empty() {
-        diag::emit_stderr(
+    let name = input_name(path);
+    match checked {
+        Some((ast, program)) if !diag::has_errors(&diags) => {
+            if !diags.is_empty() {
+                diag::emit_stderr(&diags, &name, &source, stderr_color(color));
+            }
+            Ok(Loaded {
+                path: path.to_path_buf(),
+                source,
+                ast,
+                program,
+            })
+        }
+        _ => Err(Failure::diagnostics(
             &diags,
-            &path.display().to_string(),
+            &name,
             &source,
             stderr_color(color),
-        );
+        )),
     }
-    match checked {
-        Some((ast, program)) if !diag::has_errors(&diags) => Ok(Loaded {
-            path: path.to_path_buf(),
-            source,
-            ast,
-            program,
-        }),
-        _ => Err(EXIT_INPUT),
-    }
+}
+
+/// [`load_reported`] for commands that need only the exit code.
+pub(crate) fn load(path: &Path, color: ColorMode) -> Result<Loaded, u8> {
+    load_reported(path, color).map_err(|f| f.exit)
 }

@@ -1,8 +1,11 @@
-//! `surfc mesh FILE [-o OUT] [--only NAME]... [--format F] [--json] [--quiet]`: every selected
-//! mesh block is built (surface oracle, curve polygons), marched and reported; then all of
-//! them go into one file, written atomically. If any mesh fails, nothing is written.
+//! `surfc mesh FILE [-o OUT] [--only NAME]... [--format F] [--json] [--stats] [--quiet]`:
+//! every selected mesh block is built (surface oracle, curve polygons), marched and reported;
+//! then all of them go into one file, written atomically, or to standard output (`-o -`).
+//! If any mesh fails, nothing is written.
 
+use std::io::Write;
 use std::path::PathBuf;
+use std::sync::atomic::AtomicU64;
 use std::time::Instant;
 
 use clap::ValueEnum;
@@ -10,13 +13,16 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::build::{BuildError, Builder};
-use super::load::{Loaded, load, stderr_color};
+use super::load::{Loaded, input_name, is_stdin, load_reported, stderr_color};
+use super::report::{CODE_INPUT, CODE_IO, CODE_USAGE, Failure};
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
 use crate::diag::{self, Diagnostic, messages};
 use crate::eval::Engine;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::quality::MeshReport;
-use crate::mesh::summary::{MeshSummary, Progress, format_summary};
+use crate::mesh::summary::{
+    MeshSummary, Progress, estimate_triangles, format_stats, format_summary,
+};
 use crate::mesh::write::{Format, write_mesh_file};
 use crate::mesh::{Mesh, NamedMesh};
 use crate::sema::program::{MeshDef, Program, SurfaceRef};
@@ -28,6 +34,10 @@ pub enum MeshFormat {
     Ply,
     Off,
     Glb,
+    #[value(name = "3mf")]
+    ThreeMf,
+    Msh,
+    Vtu,
 }
 
 impl From<MeshFormat> for Format {
@@ -38,14 +48,19 @@ impl From<MeshFormat> for Format {
             MeshFormat::Ply => Format::Ply,
             MeshFormat::Off => Format::Off,
             MeshFormat::Glb => Format::Glb,
+            MeshFormat::ThreeMf => Format::ThreeMf,
+            MeshFormat::Msh => Format::Msh,
+            MeshFormat::Vtu => Format::Vtu,
         }
     }
 }
 
 #[derive(clap::Args, Debug)]
 pub struct MeshArgs {
+    /// The .surf file; `-` reads standard input.
     pub file: PathBuf,
-    /// Output file; the format follows its extension. Default: `<file stem>.<format>` here.
+    /// Output file; the format follows its extension. `-` writes to standard output (then
+    /// `--format` is required). Default: `<file stem>.<format>` here.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Mesh only the named mesh blocks (repeatable).
@@ -54,9 +69,12 @@ pub struct MeshArgs {
     /// Output format (default: from OUT's extension, else obj).
     #[arg(long, value_enum)]
     pub format: Option<MeshFormat>,
-    /// Print one JSON report object on stdout.
+    /// Print one JSON report object on stdout (on failure: `{"errors": [...]}`).
     #[arg(long)]
     pub json: bool,
+    /// Print a table of shape statistics on stderr: angle percentiles, radius ratios, edges.
+    #[arg(long)]
+    pub stats: bool,
     /// No progress bar and no summary table on stderr.
     #[arg(long, short)]
     pub quiet: bool,
@@ -86,46 +104,85 @@ struct MeshJson<'a> {
 /// A mesh block that was meshed.
 #[derive(Clone, Debug)]
 pub struct Meshed {
+    /// The mesh block's name.
     pub name: String,
+    /// The name of the surface it meshes, or the text of its expression.
     pub surface: String,
+    /// The block's `step`.
     pub step: f64,
     /// The block's `box`, if it has one.
     pub bbox: Option<(DVec3, DVec3)>,
+    /// The triangles.
     pub mesh: Mesh,
+    /// Topology and quality of the triangles (the figures of `surfc mesh --json`).
     pub report: MeshReport,
+    /// Wall-clock time to build and mesh the block, in seconds.
     pub seconds: f64,
 }
 
 pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
-    let started = Instant::now();
-    let format = match Format::choose(args.format.map(Format::from), args.output.as_deref()) {
-        Ok(f) => f,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return EXIT_USAGE;
-        }
-    };
-    let loaded = match load(&args.file, color) {
-        Ok(l) => l,
-        Err(code) => return code,
-    };
-    let selected = match select(&loaded, &args.only) {
-        Ok(s) => s,
-        Err(code) => return code,
-    };
-    let meshed = match mesh_blocks(&loaded, &selected, color, args.quiet, args.engine.into()) {
-        Ok(m) => m,
-        Err(code) => return code,
-    };
-
-    let output = args
-        .output
-        .clone()
-        .unwrap_or_else(|| format.default_output(&args.file));
-    if let Err(e) = write_mesh_file(&output, format, &named(&meshed)) {
-        eprintln!("error: {e}");
-        return EXIT_USAGE;
+    let json = args.json;
+    match mesh_command(args, color) {
+        Ok(()) => 0,
+        Err(failure) => failure.finish(json),
     }
+}
+
+/// Where the mesh file goes.
+enum Output {
+    File(PathBuf),
+    Stdout,
+}
+
+/// The output and its format, from `-o` and `--format`; a usage error where they do not say
+/// enough or disagree.
+fn choose_output(args: &MeshArgs) -> Result<(Output, Format), Failure> {
+    let explicit = args.format.map(Format::from);
+    match args.output.as_deref() {
+        Some(out) if is_stdin(out) => {
+            if args.json {
+                return Err(Failure::usage(
+                    "`-o -` and `--json` both write to standard output; write the mesh to a file, or leave out `--json`".into(),
+                ));
+            }
+            match explicit {
+                Some(format) => Ok((Output::Stdout, format)),
+                None => Err(Failure::usage(
+                    "`-o -` writes to standard output, which has no extension: name the format with `--format obj|stl|ply|off|glb|3mf|msh|vtu`".into(),
+                )),
+            }
+        }
+        output => {
+            let format =
+                Format::choose(explicit, output).map_err(|e| Failure::usage(e.to_string()))?;
+            let path = match output {
+                Some(path) => path.to_path_buf(),
+                None if is_stdin(&args.file) => {
+                    return Err(Failure::usage(
+                        "reading standard input, `mesh` has no file name to name its output after: give `-o OUT` (or `-o -` with `--format`)".into(),
+                    ));
+                }
+                None => format.default_output(&args.file),
+            };
+            Ok((Output::File(path), format))
+        }
+    }
+}
+
+fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
+    let started = Instant::now();
+    let (output, format) = choose_output(&args)?;
+    let loaded = load_reported(&args.file, color)?;
+    let selected = select(&loaded, &args.only)?;
+    let meshed = mesh_blocks(&loaded, &selected, color, args.quiet, args.engine.into())?;
+
+    let meshes = named(&meshed);
+    let written = match &output {
+        Output::File(path) => write_mesh_file(path, format, &meshes)
+            .map(|()| path.display().to_string())
+            .map_err(|e| Failure::io(e.to_string(), e.path())),
+        Output::Stdout => write_stdout(format, &meshes).map(|()| "standard output".to_owned()),
+    }?;
 
     if args.json {
         let meshes: Vec<MeshJson> = meshed
@@ -147,8 +204,18 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
             serde_json::to_string(&json).unwrap_or_default()
         ));
         if code != 0 {
-            return code;
+            return Err(Failure {
+                exit: code,
+                errors: Vec::new(),
+            });
         }
+    }
+    if args.stats {
+        let rows: Vec<(&str, &MeshReport)> = meshed
+            .iter()
+            .map(|m| (m.name.as_str(), &m.report))
+            .collect();
+        eprint!("{}", format_stats(&rows));
     }
     if !args.quiet {
         let rows: Vec<MeshSummary> = meshed
@@ -162,9 +229,33 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
             })
             .collect();
         eprint!("{}", format_summary(&rows));
-        eprintln!("wrote {}", output.display());
+        eprintln!("wrote {written}");
     }
-    0
+    Ok(())
+}
+
+/// Writes the meshes to standard output (`-o -`). A reader that stops early is no error, as
+/// for every command that prints; a mesh no format can write is refused before the first
+/// byte.
+fn write_stdout(format: Format, meshes: &[NamedMesh]) -> Result<(), Failure> {
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    match format.write(&mut out, meshes).and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::InvalidData => Err(Failure::new(
+            EXIT_USAGE,
+            CODE_IO,
+            format!("cannot write the mesh: {e}"),
+            None,
+        )),
+        Err(e) => Err(Failure::new(
+            EXIT_USAGE,
+            CODE_IO,
+            format!("cannot write to standard output: {e}"),
+            None,
+        )),
+    }
 }
 
 /// The meshes as the writers and the renderer take them.
@@ -180,24 +271,31 @@ pub(crate) fn named(meshed: &[Meshed]) -> Vec<NamedMesh<'_>> {
 
 /// The mesh blocks to mesh, in file order: all, or those `--only` names. An unknown name is
 /// a usage error that lists the known ones.
-pub(crate) fn select<'a>(loaded: &'a Loaded, only: &[String]) -> Result<Vec<&'a MeshDef>, u8> {
+pub(crate) fn select<'a>(loaded: &'a Loaded, only: &[String]) -> Result<Vec<&'a MeshDef>, Failure> {
     let meshes = &loaded.program.meshes;
+    let file = input_name(&loaded.path);
     if meshes.is_empty() {
-        eprintln!(
-            "error: `{}` has no mesh block; add one, e.g. `mesh m = S {{ step: 0.1; start: (1, 0, 0); }}`",
-            loaded.path.display()
-        );
-        return Err(EXIT_INPUT);
+        return Err(Failure::new(
+            EXIT_INPUT,
+            CODE_INPUT,
+            format!(
+                "`{file}` has no mesh block; add one, e.g. `mesh m = S {{ step: 0.1; start: (1, 0, 0); }}`"
+            ),
+            Some(&loaded.path),
+        ));
     }
     for name in only {
         if !meshes.iter().any(|m| &m.name == name) {
             let known: Vec<&str> = meshes.iter().map(|m| m.name.as_str()).collect();
-            eprintln!(
-                "error: `{}` has no mesh block `{name}`; its mesh blocks are: {}",
-                loaded.path.display(),
-                known.join(", ")
-            );
-            return Err(EXIT_USAGE);
+            return Err(Failure::new(
+                EXIT_USAGE,
+                CODE_USAGE,
+                format!(
+                    "`{file}` has no mesh block `{name}`; its mesh blocks are: {}",
+                    known.join(", ")
+                ),
+                Some(&loaded.path),
+            ));
         }
     }
     Ok(meshes
@@ -213,15 +311,14 @@ pub(crate) fn mesh_blocks(
     color: ColorMode,
     quiet: bool,
     engine: Engine,
-) -> Result<Vec<Meshed>, u8> {
+) -> Result<Vec<Meshed>, Failure> {
     mesh_program(&loaded.program, &loaded.source, blocks, quiet, engine).map_err(|d| {
-        diag::emit_stderr(
+        Failure::diagnostics(
             &[d],
-            &loaded.path.display().to_string(),
+            &input_name(&loaded.path),
             &loaded.source,
             stderr_color(color),
-        );
-        EXIT_INPUT
+        )
     })
 }
 
@@ -244,7 +341,7 @@ pub fn mesh_source_with(source: &str, engine: Engine) -> Result<Vec<Meshed>, Vec
     }
 }
 
-/// Meshes the blocks in order, with a progress spinner on a terminal unless `quiet`.
+/// Meshes the blocks in order, with a progress bar on a terminal unless `quiet`.
 fn mesh_program(
     program: &Program,
     source: &str,
@@ -256,8 +353,11 @@ fn mesh_program(
     blocks
         .iter()
         .map(|def| {
-            let progress = Progress::start(&def.name, quiet);
-            let result = mesh_block(program, source, &mut builder, def);
+            let estimate = def
+                .bbox
+                .and_then(|(lo, hi)| estimate_triangles(def.step, lo, hi));
+            let progress = Progress::start(&def.name, quiet, estimate);
+            let result = mesh_block(program, source, &mut builder, def, progress.counter());
             progress.finish();
             result
         })
@@ -269,6 +369,7 @@ fn mesh_block(
     source: &str,
     builder: &mut Builder,
     def: &MeshDef,
+    progress: &AtomicU64,
 ) -> Result<Meshed, Diagnostic> {
     let started = Instant::now();
     let build_failed = |e: BuildError| {
@@ -315,8 +416,11 @@ fn mesh_block(
         bbox: def.bbox,
         max_triangles: def.max_triangles,
     };
-    let mesh = march::march(&mut surface, &input, &MarchSettings::default())
-        .map_err(|e| messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(&e)))?;
+    let mesh =
+        march::march_with_progress(&mut surface, &input, &MarchSettings::default(), progress)
+            .map_err(|e| {
+                messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(&e))
+            })?;
     let report = MeshReport::new(&mesh, &mut surface);
     Ok(Meshed {
         name: def.name.clone(),

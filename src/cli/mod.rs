@@ -6,14 +6,15 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-mod build;
+pub(crate) mod build;
 mod bytecode;
 mod check;
 mod eval;
 mod fmt;
-mod load;
+pub(crate) mod load;
 pub mod mesh;
 mod render;
+mod report;
 
 /// Exit code: the input is wrong, or a mesh could not be completed.
 pub const EXIT_INPUT: u8 = 1;
@@ -64,7 +65,7 @@ pub enum ColorMode {
 pub enum Command {
     /// Parse and check files; diagnostics on stderr.
     Check(check::CheckArgs),
-    /// Print a file in canonical formatting.
+    /// Print files in canonical formatting, check that they are, or rewrite them.
     Fmt(fmt::FmtArgs),
     /// Triangulate the mesh blocks of a file.
     Mesh(mesh::MeshArgs),

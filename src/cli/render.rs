@@ -1,15 +1,21 @@
-//! `surfc render FILE -o OUT.png|OUT.svg [--only NAME]... [--size WxH] [--view AZ,EL]`: meshes
-//! the selected blocks as `surfc mesh` does and draws them into one picture.
+//! `surfc render FILE|MESHFILE -o OUT.png|OUT.svg [--only NAME]... [--size WxH] [--view AZ,EL]`:
+//! meshes the selected blocks of a `.surf` file as `surfc mesh` does, or reads the meshes of
+//! a mesh file (OBJ, STL, PLY, OFF, GLB, 3MF: chosen by the extension), and draws them into
+//! one picture.
 
 use std::path::PathBuf;
 
 use super::load::load;
 use super::mesh::{mesh_blocks, named, select};
-use super::{ColorMode, EXIT_USAGE, EngineChoice};
+use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
+use crate::mesh::NamedMesh;
+use crate::mesh::read::{ReadError, read_mesh_file};
 use crate::mesh::render::{RenderOptions, parse_size, parse_view, write_picture_file};
+use crate::mesh::write::Format;
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
+    /// A .surf file (`-`: standard input), or a mesh file: .obj, .stl, .ply, .off, .glb, .3mf.
     pub file: PathBuf,
     /// The picture to write: .png or .svg.
     #[arg(short, long, required = true)]
@@ -48,6 +54,11 @@ pub fn run(args: RenderArgs, color: ColorMode) -> u8 {
             return EXIT_USAGE;
         }
     };
+    // A file whose extension names a mesh format is a mesh to draw; anything else (`.surf`,
+    // `-`) is meshed first.
+    if let Ok(format) = Format::from_path(&args.file) {
+        return render_mesh_file(&args, format, &options);
+    }
     let loaded = match load(&args.file, color) {
         Ok(l) => l,
         Err(code) => return code,
@@ -56,9 +67,45 @@ pub fn run(args: RenderArgs, color: ColorMode) -> u8 {
         .and_then(|blocks| mesh_blocks(&loaded, &blocks, color, args.quiet, args.engine.into()))
     {
         Ok(m) => m,
-        Err(code) => return code,
+        Err(failure) => return failure.exit,
     };
-    if let Err(e) = write_picture_file(&args.output, &named(&meshed), &options) {
+    draw(&args, &named(&meshed), &options)
+}
+
+/// Draws the meshes of a mesh file (those `--only` names, if any).
+fn render_mesh_file(args: &RenderArgs, format: Format, options: &RenderOptions) -> u8 {
+    let meshes = match read_mesh_file(&args.file, format) {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return match e {
+                ReadError::Parse { .. } => EXIT_INPUT,
+                ReadError::Io { .. } | ReadError::Unsupported { .. } => EXIT_USAGE,
+            };
+        }
+    };
+    for name in &args.only {
+        if !meshes.iter().any(|(n, _)| n == name) {
+            let known: Vec<&str> = meshes.iter().map(|(n, _)| n.as_str()).collect();
+            eprintln!(
+                "error: `{}` has no mesh `{name}`; its meshes are: {}",
+                args.file.display(),
+                known.join(", ")
+            );
+            return EXIT_USAGE;
+        }
+    }
+    let named: Vec<NamedMesh> = meshes
+        .iter()
+        .filter(|(name, _)| args.only.is_empty() || args.only.contains(name))
+        .map(|(name, mesh)| NamedMesh { name, mesh })
+        .collect();
+    draw(args, &named, options)
+}
+
+/// Writes the picture; the exit code.
+fn draw(args: &RenderArgs, meshes: &[NamedMesh], options: &RenderOptions) -> u8 {
+    if let Err(e) = write_picture_file(&args.output, meshes, options) {
         eprintln!("error: {e}");
         return EXIT_USAGE;
     }

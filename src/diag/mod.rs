@@ -15,7 +15,9 @@ use crate::span::Span;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Severity {
+    /// The input is wrong: nothing is compiled or meshed.
     Error,
+    /// Worth a look; the input is still used.
     Warning,
 }
 
@@ -23,8 +25,11 @@ pub enum Severity {
 /// point at related places (the first definition of a duplicate, the steps of a cycle).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Label {
+    /// The place in the source.
     pub span: Span,
+    /// What the label says about it.
     pub message: String,
+    /// Whether this is the place the diagnostic is about (else a related place).
     pub primary: bool,
 }
 
@@ -33,11 +38,15 @@ pub struct Label {
 pub struct Diagnostic {
     /// Stable error code, `E0001` … for errors, `W0001` … for warnings (docs/language.md).
     pub code: &'static str,
+    /// Error or warning.
     pub severity: Severity,
+    /// What is wrong, in one line.
     pub message: String,
+    /// The places in the source, the primary one first where there is one.
     pub labels: Vec<Label>,
     /// A likely fix, if there is one.
     pub help: Option<String>,
+    /// Further remarks, each printed as a `note`.
     pub notes: Vec<String>,
 }
 
@@ -111,6 +120,12 @@ pub fn has_errors(diags: &[Diagnostic]) -> bool {
 /// Source lines longer than this are not quoted: a label on one becomes a note with its line
 /// and column (a megabyte-long line would otherwise be printed once per label).
 const MAX_QUOTED_LINE: usize = 1000;
+
+/// The 1-based line and column (in characters) of a byte offset into `source`.
+pub fn line_column(source: &str, offset: usize) -> (usize, usize) {
+    let (line, column, _) = locate(source, offset);
+    (line, column)
+}
 
 /// The 1-based line and column of `offset`, and the length of its line.
 fn locate(source: &str, offset: usize) -> (usize, usize, usize) {

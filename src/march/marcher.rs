@@ -27,10 +27,11 @@ const MAX_STEPS_WITHOUT_TRIANGLE: u64 = 1_000_000;
 
 type HeapEntry = Reverse<(u64, u32, u32)>;
 
-pub(super) fn run(
-    surface: &mut dyn Surface,
+pub(super) fn run<'s>(
+    surface: &'s mut dyn Surface,
     input: &MarchInput,
     settings: &MarchSettings,
+    progress: Option<&'s std::sync::atomic::AtomicU64>,
 ) -> Result<Mesh, MarchError> {
     let step = input.step;
     if !(step.is_finite() && step > 0.0) {
@@ -48,6 +49,7 @@ pub(super) fn run(
         step,
         bbox: input.bbox,
         max_triangles: input.max_triangles.unwrap_or(settings.max_triangles),
+        progress,
         trace,
         pos: Vec::new(),
         normal: Vec::new(),
@@ -106,6 +108,8 @@ struct Marcher<'s> {
     step: f64,
     bbox: Option<(DVec3, DVec3)>,
     max_triangles: u64,
+    /// Where the triangle count goes for a progress bar, if anyone watches.
+    progress: Option<&'s std::sync::atomic::AtomicU64>,
     trace: bool,
     // Points (= mesh vertices).
     pos: Vec<DVec3>,
@@ -550,6 +554,12 @@ impl Marcher<'_> {
             }
             self.complete(m)?;
             idle = 0;
+            if let Some(progress) = self.progress {
+                progress.store(
+                    self.triangles.len() as u64,
+                    std::sync::atomic::Ordering::Relaxed,
+                );
+            }
             if self.triangles.len() as u64 > self.max_triangles {
                 return Err(MarchError::TooManyTriangles {
                     limit: self.max_triangles,

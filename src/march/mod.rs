@@ -147,5 +147,16 @@ pub fn march(
     input: &MarchInput,
     settings: &MarchSettings,
 ) -> Result<Mesh, MarchError> {
-    marcher::run(surface, input, settings)
+    marcher::run(surface, input, settings, None)
+}
+
+/// [`march`], storing the number of triangles made so far into `progress` as it goes (for a
+/// progress bar on another thread; relaxed stores, one per triangle).
+pub fn march_with_progress(
+    surface: &mut dyn Surface,
+    input: &MarchInput,
+    settings: &MarchSettings,
+    progress: &std::sync::atomic::AtomicU64,
+) -> Result<Mesh, MarchError> {
+    marcher::run(surface, input, settings, Some(progress))
 }

@@ -11,6 +11,7 @@ use glam::DVec3;
 /// A triangle mesh of one surface.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
+    /// Vertex positions.
     pub vertices: Vec<DVec3>,
     /// Unit normal at each vertex, ∇f/|∇f|.
     pub normals: Vec<DVec3>,
@@ -23,10 +24,13 @@ pub struct Mesh {
 /// vertices in the file, so that they form one coherent net.
 #[derive(Clone, Copy, Debug)]
 pub struct NamedMesh<'a> {
+    /// The name written with the mesh (its mesh block's).
     pub name: &'a str,
+    /// The triangles.
     pub mesh: &'a Mesh,
 }
 
+pub mod read;
 pub mod render;
 pub mod summary;
 pub mod write;

@@ -1,6 +1,6 @@
 //! Quality of a triangle mesh: triangle angles (smallest, percentiles of each triangle's
-//! smallest angle), edge lengths, and how far vertices are off a surface (|f|/|∇f|); and the
-//! `MeshReport` the CLI prints as JSON (DESIGN.md §3).
+//! smallest angle), radius ratios, edge lengths, and how far vertices are off a surface
+//! (|f|/|∇f|); and the `MeshReport` the CLI prints as JSON (DESIGN.md §3).
 
 use glam::DVec3;
 use serde::Serialize;
@@ -30,8 +30,15 @@ pub struct Quality {
     pub min_angle_deg: f64,
     /// 1st percentile of the triangles' smallest angles, degrees.
     pub p1_angle_deg: f64,
+    /// 5th percentile of the triangles' smallest angles, degrees.
+    pub p5_angle_deg: f64,
     /// Median of the triangles' smallest angles, degrees.
     pub median_angle_deg: f64,
+    /// Mean over the triangles of 2·inradius/circumradius (1 for an equilateral triangle,
+    /// 0 for a degenerate one).
+    pub radius_ratio_mean: f64,
+    /// Smallest radius ratio of any triangle.
+    pub radius_ratio_min: f64,
     pub min_edge: f64,
     pub mean_edge: f64,
     pub max_edge: f64,
@@ -49,11 +56,15 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
 /// Angle and edge statistics of `mesh` (NaN where the mesh has no triangles).
 pub fn quality(mesh: &Mesh) -> Quality {
     let mut mins: Vec<f64> = Vec::with_capacity(mesh.triangles.len());
+    let (mut ratio_sum, mut ratio_min) = (0.0, f64::INFINITY);
     let (mut emin, mut emax, mut esum, mut en) = (f64::INFINITY, 0.0f64, 0.0, 0usize);
     for t in &mesh.triangles {
         let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
         let ang = triangle_angles(a, b, c);
         mins.push(ang[0].min(ang[1]).min(ang[2]));
+        let ratio = radius_ratio(a, b, c);
+        ratio_sum += ratio;
+        ratio_min = ratio_min.min(ratio);
         for (p, q) in [(a, b), (b, c), (c, a)] {
             let l = p.distance(q);
             emin = emin.min(l);
@@ -66,10 +77,30 @@ pub fn quality(mesh: &Mesh) -> Quality {
     Quality {
         min_angle_deg: mins.first().copied().unwrap_or(f64::NAN),
         p1_angle_deg: quantile(&mins, 0.01),
+        p5_angle_deg: quantile(&mins, 0.05),
         median_angle_deg: quantile(&mins, 0.5),
+        radius_ratio_mean: if mins.is_empty() {
+            f64::NAN
+        } else {
+            ratio_sum / mins.len() as f64
+        },
+        radius_ratio_min: if mins.is_empty() { f64::NAN } else { ratio_min },
         min_edge: if en > 0 { emin } else { f64::NAN },
         mean_edge: if en > 0 { esum / en as f64 } else { f64::NAN },
         max_edge: if en > 0 { emax } else { f64::NAN },
+    }
+}
+
+/// 2·inradius/circumradius of a triangle, = 16·area²/(abc·(a+b+c)) for side lengths a, b, c:
+/// 1 for an equilateral triangle, 0 for a degenerate one.
+pub fn radius_ratio(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let sides = [a.distance(b), b.distance(c), c.distance(a)];
+    let twice_area = (b - a).cross(c - a).length();
+    let denominator = sides[0] * sides[1] * sides[2] * (sides[0] + sides[1] + sides[2]);
+    if denominator > 0.0 {
+        (4.0 * twice_area * twice_area / denominator).min(1.0)
+    } else {
+        0.0
     }
 }
 
@@ -93,15 +124,64 @@ pub fn max_vertex_error(mesh: &Mesh, surface: &mut dyn Surface) -> f64 {
 /// step and seconds.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MeshReport {
+    /// Vertices used by triangles.
     pub vertices: usize,
+    /// Triangles.
     pub triangles: usize,
+    /// Edges of exactly one triangle.
     pub boundary_edges: usize,
+    /// Closed polygons of boundary edges.
     pub boundary_loops: usize,
+    /// Edges of more than two triangles.
     pub non_manifold_edges: usize,
+    /// V − E + F.
     pub euler_characteristic: i64,
+    /// Edge-connected components.
     pub components: usize,
+    /// The smallest angle of any triangle, degrees.
     pub min_angle_deg: f64,
+    /// max |f|/|∇f| over the vertices.
     pub max_vertex_error: f64,
+    /// Shape statistics of the triangles.
+    #[serde(flatten)]
+    pub stats: MeshStats,
+}
+
+/// The shape statistics of `surfc mesh --json` and `--stats` (docs/cli.md): percentiles of
+/// the triangles' smallest angles, radius ratios, edge lengths.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MeshStats {
+    /// 1st percentile of the triangles' smallest angles, degrees.
+    pub min_angle_p1_deg: f64,
+    /// 5th percentile of the triangles' smallest angles, degrees.
+    pub min_angle_p5_deg: f64,
+    /// Median of the triangles' smallest angles, degrees.
+    pub min_angle_median_deg: f64,
+    /// Mean of 2·inradius/circumradius over the triangles (1: equilateral).
+    pub radius_ratio_mean: f64,
+    /// Smallest 2·inradius/circumradius of any triangle.
+    pub radius_ratio_min: f64,
+    /// Shortest edge.
+    pub edge_min: f64,
+    /// Mean edge length (over every triangle's three edges).
+    pub edge_mean: f64,
+    /// Longest edge.
+    pub edge_max: f64,
+}
+
+impl From<&Quality> for MeshStats {
+    fn from(q: &Quality) -> MeshStats {
+        MeshStats {
+            min_angle_p1_deg: q.p1_angle_deg,
+            min_angle_p5_deg: q.p5_angle_deg,
+            min_angle_median_deg: q.median_angle_deg,
+            radius_ratio_mean: q.radius_ratio_mean,
+            radius_ratio_min: q.radius_ratio_min,
+            edge_min: q.min_edge,
+            edge_mean: q.mean_edge,
+            edge_max: q.max_edge,
+        }
+    }
 }
 
 impl MeshReport {
@@ -118,6 +198,7 @@ impl MeshReport {
             components: t.components,
             min_angle_deg: q.min_angle_deg,
             max_vertex_error: max_vertex_error(mesh, surface),
+            stats: MeshStats::from(&q),
         }
     }
 }
@@ -138,5 +219,18 @@ mod tests {
         }
         let a = triangle_angles(DVec3::ZERO, DVec3::X, DVec3::Y);
         assert!((a[0] - 90.0).abs() < 1e-9 && (a[1] - 45.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn radius_ratio_against_the_radii() {
+        let h = 3f64.sqrt() / 2.0;
+        let equilateral = radius_ratio(DVec3::ZERO, DVec3::X, DVec3::new(0.5, h, 0.0));
+        assert!((equilateral - 1.0).abs() < 1e-12);
+        // A right isosceles triangle with legs 1: inradius (2 − √2)/2, circumradius √2/2.
+        let right = radius_ratio(DVec3::ZERO, DVec3::X, DVec3::Y);
+        let expected = 2.0 * ((2.0 - 2f64.sqrt()) / 2.0) / (2f64.sqrt() / 2.0);
+        assert!((right - expected).abs() < 1e-12, "{right} {expected}");
+        assert_eq!(radius_ratio(DVec3::ZERO, DVec3::X, 2.0 * DVec3::X), 0.0);
+        assert_eq!(radius_ratio(DVec3::ZERO, DVec3::ZERO, DVec3::ZERO), 0.0);
     }
 }

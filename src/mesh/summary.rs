@@ -1,13 +1,19 @@
-//! What `surfc mesh` tells a person on stderr: a progress spinner while a slow mesh is being
-//! made, and a short table afterwards (mesh, triangles, time, topology). Topology is computed
-//! elsewhere; this module only formats the numbers it is given.
+//! What `surfc mesh` tells a person on stderr: a progress bar while a slow mesh is being
+//! made, a short table afterwards (mesh, triangles, time, topology), and with `--stats` a
+//! table of shape statistics. The numbers are computed elsewhere; this module only shows
+//! them.
 
 use std::io::IsTerminal;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use glam::DVec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use super::quality::MeshReport;
 
 /// One row of the summary table.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -38,28 +44,8 @@ pub fn format_summary(rows: &[MeshSummary]) -> String {
             ]
         })
         .collect();
-    let mut widths = [0usize; 4];
-    for line in std::iter::once(&header).chain(&lines) {
-        for (w, cell) in widths.iter_mut().zip(line) {
-            *w = (*w).max(cell.chars().count());
-        }
-    }
-    let mut out = String::new();
-    for line in std::iter::once(&header).chain(&lines) {
-        let pad = |k: usize| " ".repeat(widths[k] - line[k].chars().count());
-        // Names and topology to the left, numbers to the right.
-        out.push_str(&format!(
-            "{}{}  {}{}  {}{}  {}\n",
-            line[0],
-            pad(0),
-            pad(1),
-            line[1],
-            pad(2),
-            line[2],
-            line[3]
-        ));
-    }
-    out
+    // Names and topology to the left, numbers to the right.
+    aligned(&header, &lines, &[0, 3])
 }
 
 fn duration(seconds: f64) -> String {
@@ -83,63 +69,85 @@ fn topology(r: &MeshSummary) -> String {
     }
 }
 
-/// How long a mesh may take before its spinner appears.
+/// How long a mesh may take before its progress bar appears.
 const SPINNER_DELAY: Duration = Duration::from_millis(500);
-/// How often a visible spinner redraws.
+/// How often a visible progress bar redraws.
 const SPINNER_TICK: Duration = Duration::from_millis(100);
 
-/// A spinner for one mesh that appears only if the mesh takes longer than half a second, only
-/// when stderr is a terminal, never when quiet; it vanishes when finished or dropped.
+/// A progress bar for one mesh: the triangles made so far (read from a counter the marcher
+/// updates) and, where there is an estimate, a bar towards it. It appears only if the mesh
+/// takes longer than half a second, only when stderr is a terminal, never when quiet; it
+/// vanishes when finished or dropped.
 pub struct Progress {
     bar: ProgressBar,
+    /// The marcher's triangle count.
+    counter: Arc<AtomicU64>,
     /// Tells the timer thread that the mesh is done.
     done: Option<mpsc::Sender<()>>,
     timer: Option<JoinHandle<()>>,
 }
 
 impl Progress {
-    /// Starts timing the mesh called `name`.
-    pub fn start(name: &str, quiet: bool) -> Progress {
-        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
-        if let Ok(style) = ProgressStyle::with_template("{spinner} meshing {msg} ({elapsed})") {
-            bar.set_style(style);
+    /// Starts timing the mesh called `name`, expected to have about `estimate` triangles.
+    pub fn start(name: &str, quiet: bool, estimate: Option<u64>) -> Progress {
+        let bar = ProgressBar::with_draw_target(estimate, ProgressDrawTarget::hidden());
+        let template = if estimate.is_some() {
+            "{spinner} meshing {msg}: {pos} of ~{len} triangles [{bar:30}] ({elapsed})"
+        } else {
+            "{spinner} meshing {msg}: {pos} triangles ({elapsed})"
+        };
+        if let Ok(style) = ProgressStyle::with_template(template) {
+            bar.set_style(style.progress_chars("=> "));
         }
         bar.set_message(name.to_owned());
+        let counter = Arc::new(AtomicU64::new(0));
         if quiet || !std::io::stderr().is_terminal() {
             return Progress {
                 bar,
+                counter,
                 done: None,
                 timer: None,
             };
         }
         let (done, wait) = mpsc::channel::<()>();
         let shown = bar.clone();
+        let count = Arc::clone(&counter);
         let timer = std::thread::spawn(move || {
-            if let Err(RecvTimeoutError::Timeout) = wait.recv_timeout(SPINNER_DELAY) {
-                shown.set_draw_target(ProgressDrawTarget::stderr());
-                shown.enable_steady_tick(SPINNER_TICK);
+            if wait.recv_timeout(SPINNER_DELAY) != Err(RecvTimeoutError::Timeout) {
+                return;
+            }
+            shown.set_draw_target(ProgressDrawTarget::stderr());
+            while wait.recv_timeout(SPINNER_TICK) == Err(RecvTimeoutError::Timeout) {
+                let made = count.load(Ordering::Relaxed);
+                // An estimate is only that: past it, the bar stays full and keeps counting.
+                if shown.length().is_some_and(|len| made > len) {
+                    shown.set_length(made);
+                }
+                shown.set_position(made);
+                shown.tick();
             }
         });
         Progress {
             bar,
+            counter,
             done: Some(done),
             timer: Some(timer),
         }
     }
 
-    /// Shows how far the mesh has come, e.g. its triangle count so far.
-    pub fn set_message(&self, message: String) {
-        self.bar.set_message(message);
+    /// The counter the marcher stores its triangle count into.
+    pub fn counter(&self) -> &AtomicU64 {
+        &self.counter
     }
 
-    /// Removes the spinner (if it appeared) and stops its timer.
+    /// Removes the progress bar (if it appeared) and stops its timer.
     pub fn finish(mut self) {
         self.stop();
     }
 
     fn stop(&mut self) {
         if let Some(done) = self.done.take() {
-            // The timer may have fired already; then nobody listens, which is fine.
+            // The timer may have stopped already; then nobody listens, which is fine.
             let _ = done.send(());
         }
         if let Some(timer) = self.timer.take() {
@@ -153,6 +161,86 @@ impl Drop for Progress {
     fn drop(&mut self) {
         self.stop();
     }
+}
+
+/// A rough number of triangles for a mesh bounded by a box: triangles of edge `step` over
+/// half the box's surface area (about the area of a graph-like surface across the box). Only
+/// a guide for the progress bar; None for an empty or non-finite box.
+pub fn estimate_triangles(step: f64, lo: DVec3, hi: DVec3) -> Option<u64> {
+    let d = hi - lo;
+    let area = d.x * d.y + d.y * d.z + d.z * d.x;
+    let triangle = 3f64.sqrt() / 4.0 * step * step;
+    let estimate = area / triangle;
+    (estimate.is_finite() && estimate >= 1.0).then(|| estimate.min(u64::MAX as f64) as u64)
+}
+
+/// The `--stats` table: one line per mesh after a header line, columns aligned: the
+/// percentiles of the triangles' smallest angles, the radius ratios, the edge lengths.
+pub fn format_stats(rows: &[(&str, &MeshReport)]) -> String {
+    let header = [
+        "mesh",
+        "min°",
+        "p1°",
+        "p5°",
+        "median°",
+        "ratio mean",
+        "ratio min",
+        "edge min",
+        "edge mean",
+        "edge max",
+    ]
+    .map(String::from);
+    let lines: Vec<[String; 10]> = rows
+        .iter()
+        .map(|(name, r)| {
+            let s = &r.stats;
+            let angle = |x: f64| format!("{x:.1}");
+            let number = |x: f64| format!("{x:.4}");
+            [
+                (*name).to_owned(),
+                angle(r.min_angle_deg),
+                angle(s.min_angle_p1_deg),
+                angle(s.min_angle_p5_deg),
+                angle(s.min_angle_median_deg),
+                number(s.radius_ratio_mean),
+                number(s.radius_ratio_min),
+                number(s.edge_min),
+                number(s.edge_mean),
+                number(s.edge_max),
+            ]
+        })
+        .collect();
+    aligned(&header, &lines, &[0])
+}
+
+/// Rows of cells as text, columns two spaces apart, each line ending in a newline: the
+/// columns listed in `left` aligned to the left (the last one unpadded), the others to the
+/// right.
+fn aligned<const N: usize>(header: &[String; N], lines: &[[String; N]], left: &[usize]) -> String {
+    let mut widths = [0usize; N];
+    for line in std::iter::once(header).chain(lines) {
+        for (w, cell) in widths.iter_mut().zip(line) {
+            *w = (*w).max(cell.chars().count());
+        }
+    }
+    let mut out = String::new();
+    for line in std::iter::once(header).chain(lines) {
+        for (k, cell) in line.iter().enumerate() {
+            let pad = " ".repeat(widths[k] - cell.chars().count());
+            if k > 0 {
+                out.push_str("  ");
+            }
+            if !left.contains(&k) {
+                out.push_str(&pad);
+            }
+            out.push_str(cell);
+            if left.contains(&k) && k + 1 < N {
+                out.push_str(&pad);
+            }
+        }
+        out.push('\n');
+    }
+    out
 }
 
 #[cfg(test)]
@@ -194,13 +282,24 @@ cap                      12    0 ms  1 boundary loop, 2 non-manifold edges
     }
 
     #[test]
+    fn the_estimate_covers_half_the_box_surface() {
+        // A 2 × 2 × 1 box: half its surface is 4 + 2 + 2 = 8; a triangle of edge 0.1 has
+        // the area √3/4 · 0.01.
+        let estimate = estimate_triangles(0.1, DVec3::new(-1.0, -1.0, 0.0), DVec3::ONE);
+        let expected = 8.0 / (3f64.sqrt() / 4.0 * 0.01);
+        assert_eq!(estimate, Some(expected as u64));
+        assert_eq!(estimate_triangles(0.1, DVec3::ONE, DVec3::ONE), None);
+        assert_eq!(estimate_triangles(f64::NAN, DVec3::ZERO, DVec3::ONE), None);
+    }
+
+    #[test]
     fn a_quiet_or_piped_spinner_never_draws() {
         // Quiet: no timer at all. Otherwise (terminal or not) nothing shows in the first half
         // second, and finishing early stops the timer before it fires.
         for quiet in [true, false] {
-            let progress = Progress::start("m", quiet);
+            let progress = Progress::start("m", quiet, Some(100));
             assert!(progress.bar.is_hidden());
-            progress.set_message("10 triangles".into());
+            progress.counter().store(10, Ordering::Relaxed);
             if quiet {
                 assert!(progress.timer.is_none());
             }

@@ -1,8 +1,13 @@
 //! GLB: named meshes → one glTF 2.0 binary file. Each mesh is a node and a mesh of its name
 //! with one triangle primitive: POSITION and NORMAL (f32 vec3; POSITION with the min/max the
-//! specification requires) and u32 indices. A mesh without triangles is a node without a
-//! mesh (glTF allows no empty accessors). Vertices are not shared between meshes: each
-//! primitive owns its attribute arrays.
+//! specification requires) and u32 indices, drawn with one default material (light grey,
+//! double-sided: an open surface is seen from both sides). A mesh without triangles is a node
+//! without a mesh (glTF allows no empty accessors). Vertices are not shared between meshes:
+//! each primitive owns its attribute arrays.
+//!
+//! glTF is +Y up, surfc's models are +Z up: the mesh nodes are children of one root node
+//! whose rotation (−90° about x) turns the model's z into glTF's y. The vertex data stay the
+//! model's own coordinates.
 
 use std::io::{self, Write};
 
@@ -18,6 +23,16 @@ const FLOAT: u32 = 5126;
 const UNSIGNED_INT: u32 = 5125;
 /// glTF primitive mode: triangles.
 const TRIANGLES: u32 = 4;
+/// The root node's rotation, a unit quaternion (x, y, z, w): −90° about the x axis, which
+/// takes the model's +z to glTF's +y (and +y to −z), right-handed as both are.
+const Z_UP_TO_Y_UP: [f64; 4] = [
+    -std::f64::consts::FRAC_1_SQRT_2,
+    0.0,
+    0.0,
+    std::f64::consts::FRAC_1_SQRT_2,
+];
+/// The name of the root node that holds the meshes' nodes.
+pub const ROOT_NODE: &str = "surfc (z up)";
 /// GLB header and chunk type codes.
 const MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: &[u8; 4] = b"JSON";
@@ -87,6 +102,7 @@ pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()>
             "primitives": [{
                 "attributes": { "POSITION": first, "NORMAL": first + 1 },
                 "indices": first + 2,
+                "material": 0,
                 "mode": TRIANGLES
             }]
         }));
@@ -99,11 +115,30 @@ pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()>
         json!({ "version": "2.0", "generator": "surfc" }),
     );
     if !nodes.is_empty() {
+        let root = nodes.len();
+        nodes.push(json!({
+            "name": ROOT_NODE,
+            "rotation": Z_UP_TO_Y_UP,
+            "children": (0..root).collect::<Vec<_>>()
+        }));
         document.insert("scene".into(), json!(0));
-        let scene = json!({ "nodes": (0..nodes.len()).collect::<Vec<_>>() });
-        document.insert("scenes".into(), json!([scene]));
+        document.insert("scenes".into(), json!([{ "nodes": [root] }]));
     }
+    let materials = if gltf_meshes.is_empty() {
+        Vec::new()
+    } else {
+        vec![json!({
+            "name": "surfc default",
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+                "metallicFactor": 0.0,
+                "roughnessFactor": 0.6
+            },
+            "doubleSided": true
+        })]
+    };
     for (key, list) in [
+        ("materials", materials),
         ("nodes", nodes),
         ("meshes", gltf_meshes),
         ("accessors", accessors),

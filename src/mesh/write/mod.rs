@@ -1,4 +1,5 @@
-//! Mesh files: named meshes → the bytes of one OBJ, OFF, binary STL, binary PLY or GLB file.
+//! Mesh files: named meshes → the bytes of one OBJ, OFF, binary STL, binary PLY, GLB, 3MF,
+//! gmsh MSH or VTK VTU file.
 //!
 //! Every writer takes all meshes of a file at once and never panics: a mesh that cannot be
 //! written (a non-finite coordinate, an index past the vertex list, a normal list of the wrong
@@ -9,10 +10,13 @@
 //! `docs/formats.md`.
 
 mod glb;
+mod msh;
 mod obj;
 mod off;
 mod ply;
 mod stl;
+mod threemf;
+mod vtu;
 
 use std::collections::HashMap;
 use std::fmt;
@@ -25,16 +29,20 @@ use glam::DVec3;
 
 use super::{Mesh, NamedMesh};
 
-pub use glb::write_glb;
+pub use glb::{ROOT_NODE as GLB_ROOT_NODE, write_glb};
+pub use msh::write_msh;
 pub use obj::write_obj;
 pub use off::write_off;
 pub use ply::write_ply;
 pub use stl::write_stl;
+pub use threemf::{MODEL_PATH as THREEMF_MODEL_PATH, write_3mf};
+pub use vtu::write_vtu;
 
 /// A mesh file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Format {
-    /// Wavefront OBJ, text: one `o` object per mesh, shared positions, per-mesh normals.
+    /// Wavefront OBJ, text: one `o` object and `g` group per mesh, shared positions, one
+    /// normal per position.
     Obj,
     /// Binary STL, f32 triangles with facet normals, no names.
     Stl,
@@ -42,18 +50,28 @@ pub enum Format {
     Ply,
     /// OFF, text: one merged vertex list with shared positions, no normals or names.
     Off,
-    /// glTF 2.0 binary: one named node and mesh per mesh, f32 positions and normals.
+    /// glTF 2.0 binary: one named node and mesh per mesh, f32 positions and normals, Y up
+    /// through the root node's rotation.
     Glb,
+    /// 3MF (3D Manufacturing Format): a zip package, one named object per mesh.
+    ThreeMf,
+    /// gmsh MSH 4.1, text: one named physical group per mesh, shared nodes.
+    Msh,
+    /// VTK XML unstructured grid, text: shared points, the mesh's index as cell data `block`.
+    Vtu,
 }
 
 impl Format {
     /// Every format, in the order of the command line's help.
-    pub const ALL: [Format; 5] = [
+    pub const ALL: [Format; 8] = [
         Format::Obj,
         Format::Stl,
         Format::Ply,
         Format::Off,
         Format::Glb,
+        Format::ThreeMf,
+        Format::Msh,
+        Format::Vtu,
     ];
 
     /// The file extension, lower case and without the dot.
@@ -64,6 +82,9 @@ impl Format {
             Format::Ply => "ply",
             Format::Off => "off",
             Format::Glb => "glb",
+            Format::ThreeMf => "3mf",
+            Format::Msh => "msh",
+            Format::Vtu => "vtu",
         }
     }
 
@@ -121,6 +142,9 @@ impl Format {
             Format::Ply => write_ply(out, meshes),
             Format::Off => write_off(out, meshes),
             Format::Glb => write_glb(out, meshes),
+            Format::ThreeMf => write_3mf(out, meshes),
+            Format::Msh => write_msh(out, meshes),
+            Format::Vtu => write_vtu(out, meshes),
         }
     }
 
@@ -152,7 +176,7 @@ impl FromStr for Format {
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum FormatError {
     #[error(
-        "cannot tell the mesh format of `{}` from its extension{}; use .obj, .stl, .ply, .off or .glb, or --format",
+        "cannot tell the mesh format of `{}` from its extension{}; use .obj, .stl, .ply, .off, .glb, .3mf, .msh or .vtu, or --format",
         path.display(),
         extension.as_deref().map(|e| format!(" `.{e}`")).unwrap_or_default()
     )]
@@ -160,7 +184,7 @@ pub enum FormatError {
         path: PathBuf,
         extension: Option<String>,
     },
-    #[error("unknown mesh format `{0}`; expected obj, stl, ply, off or glb")]
+    #[error("unknown mesh format `{0}`; expected obj, stl, ply, off, glb, 3mf, msh or vtu")]
     UnknownName(String),
     #[error(
         "`{}` has the extension of {implied} but --format asks for {explicit}",
@@ -339,6 +363,9 @@ impl Format {
             Format::Ply => ply::write(out, meshes),
             Format::Off => off::write(out, meshes),
             Format::Glb => glb::write(out, meshes),
+            Format::ThreeMf => threemf::write(out, meshes),
+            Format::Msh => msh::write(out, meshes),
+            Format::Vtu => vtu::write(out, meshes),
         }
     }
 }
@@ -493,6 +520,24 @@ impl std::hash::Hasher for BitsHasher {
         h = h.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
         h ^ (h >> 33)
     }
+}
+
+/// A mesh name as XML attribute or text: the five special characters as entities, control
+/// characters (which XML 1.0 cannot hold) as `_`.
+fn xml_escape(name: &str) -> String {
+    let mut out = String::with_capacity(name.len());
+    for c in name.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            c if c.is_control() => out.push('_'),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// A mesh name made safe for line-based headers (OBJ, PLY comments): whitespace and control

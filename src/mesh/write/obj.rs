@@ -1,9 +1,13 @@
-//! OBJ: named meshes → Wavefront OBJ text. One `o NAME` object per mesh; positions shared
-//! across meshes (`v`, bit-identical positions written once), one normal per mesh vertex
-//! (`vn`), faces `f v//vn` with 1-based indices. Numbers in Rust's shortest round-trip form.
+//! OBJ: named meshes → Wavefront OBJ text. Positions are shared across meshes (`v`,
+//! bit-identical positions written once), each followed by its normal: one `vn` per `v`, in
+//! the same order, so that readers that take normals as point data (meshio) find as many
+//! normals as points. Each mesh is `o NAME` and `g NAME` (trimesh splits on `o`, meshio on
+//! `g`) with faces `f v//v`, 1-based. Numbers in Rust's shortest round-trip form.
 
 use std::fmt::Write as _;
 use std::io::{self, Write};
+
+use glam::DVec3;
 
 use super::{Format, NamedMesh, SharedPositions, header_name};
 
@@ -14,36 +18,73 @@ pub fn write_obj(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
 
 pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
     let shared = SharedPositions::new(meshes);
+    let normals = shared_normals(meshes, &shared);
     let mut line = String::with_capacity(128);
     let names: Vec<String> = meshes.iter().map(|m| header_name(m.name)).collect();
     writeln!(out, "# surfc: {}", names.join(", "))?;
-    // All positions first: an object may use positions first written for an earlier one.
+    // All positions and normals first: an object may use positions first written for an
+    // earlier one.
     for p in &shared.positions {
         line.clear();
         // `{:?}` is the shortest text that parses back to the same f64 (`2.0`, `1e-7`).
         let _ = writeln!(line, "v {:?} {:?} {:?}", p.x, p.y, p.z);
         out.write_all(line.as_bytes())?;
     }
-    let mut normal_base = 1u64;
+    for n in &normals {
+        line.clear();
+        let _ = writeln!(line, "vn {:?} {:?} {:?}", n.x, n.y, n.z);
+        out.write_all(line.as_bytes())?;
+    }
     for ((named, index), name) in meshes.iter().zip(&shared.index).zip(&names) {
         writeln!(out, "o {name}")?;
-        for n in &named.mesh.normals {
-            line.clear();
-            let _ = writeln!(line, "vn {:?} {:?} {:?}", n.x, n.y, n.z);
-            out.write_all(line.as_bytes())?;
-        }
+        writeln!(out, "g {name}")?;
         for tri in &named.mesh.triangles {
             line.clear();
             line.push('f');
             for &i in tri {
                 let v = u64::from(index[i as usize]) + 1;
-                let n = u64::from(i) + normal_base;
-                let _ = write!(line, " {v}//{n}");
+                let _ = write!(line, " {v}//{v}");
             }
             line.push('\n');
             out.write_all(line.as_bytes())?;
         }
-        normal_base += named.mesh.normals.len() as u64;
     }
     Ok(())
+}
+
+/// One normal per shared position: the mesh's own normal where one mesh uses the position
+/// (or all that use it agree bit for bit); where meshes of different surfaces meet on a
+/// shared polygon, the normalised sum of their normals (what a smooth-shading renderer would
+/// compute there), or the first mesh's normal if they cancel.
+fn shared_normals(meshes: &[NamedMesh], shared: &SharedPositions) -> Vec<DVec3> {
+    let mut first: Vec<Option<DVec3>> = vec![None; shared.positions.len()];
+    let mut sum = vec![DVec3::ZERO; shared.positions.len()];
+    let mut differs = vec![false; shared.positions.len()];
+    for (named, index) in meshes.iter().zip(&shared.index) {
+        for (&k, &n) in index.iter().zip(&named.mesh.normals) {
+            let k = k as usize;
+            match first[k] {
+                None => first[k] = Some(n),
+                Some(f) => {
+                    differs[k] |= f.to_array().map(f64::to_bits) != n.to_array().map(f64::to_bits)
+                }
+            }
+            sum[k] += n;
+        }
+    }
+    first
+        .into_iter()
+        .zip(sum)
+        .zip(differs)
+        .map(|((first, sum), differs)| {
+            // Every position belongs to some mesh; formats without normals never get here
+            // without them (`validate` checks the count).
+            let first = first.unwrap_or(DVec3::ZERO);
+            if differs {
+                sum.try_normalize().unwrap_or(first)
+            } else {
+                first
+            }
+        })
+        .collect()
 }

@@ -1,0 +1,229 @@
+//! The library's documented entry points, re-exported at the crate root: [`check`] a `.surf`
+//! source, [`Checked::compile`] one of its surfaces into a [`Function`] that gives value and
+//! gradient, [`Checked::mesh`] its mesh blocks, and [`write_mesh`] meshes in any [`Format`].
+//! The stages behind them (parser, checker, compiler, evaluator, marcher) are internal.
+
+use std::io::{self, Write};
+
+use glam::DVec3;
+
+use crate::cli::build::Builder;
+use crate::diag;
+use crate::eval::Engine;
+use crate::sema::program::{Program, SurfaceId, SurfaceRef};
+use crate::surface::Surface;
+use crate::surface::compiled::CompiledSurface;
+
+pub use crate::cli::mesh::Meshed;
+pub use crate::diag::{Diagnostic, Severity};
+pub use crate::mesh::quality::{MeshReport, MeshStats};
+pub use crate::mesh::write::Format;
+pub use crate::mesh::{Mesh, NamedMesh};
+
+/// A source with errors, or a mesh that could not be completed: every diagnostic, and the
+/// source they point into.
+#[derive(Clone, Debug)]
+pub struct Errors {
+    /// The diagnostics, errors and warnings, in the order they were found.
+    pub diagnostics: Vec<Diagnostic>,
+    source: String,
+}
+
+impl Errors {
+    /// The diagnostics as a person reads them (codespan's rendering, without colour), with
+    /// `file_name` as the file's name.
+    ///
+    /// ```
+    /// let errors = surfc::check("surface s = x + qq;").unwrap_err();
+    /// let text = errors.render("bad.surf");
+    /// assert!(text.contains("bad.surf:1:17"), "{text}");
+    /// ```
+    pub fn render(&self, file_name: &str) -> String {
+        diag::render(&self.diagnostics, file_name, &self.source, false)
+    }
+}
+
+impl std::fmt::Display for Errors {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let errors: Vec<&Diagnostic> = self.diagnostics.iter().filter(|d| d.is_error()).collect();
+        match errors.first() {
+            Some(first) if errors.len() > 1 => write!(
+                f,
+                "{}: {} (and {} more errors)",
+                first.code,
+                first.message,
+                errors.len() - 1
+            ),
+            Some(first) => write!(f, "{}: {}", first.code, first.message),
+            None => f.write_str("no errors"),
+        }
+    }
+}
+
+impl std::error::Error for Errors {}
+
+/// A `.surf` source that parsed and checked without errors.
+#[derive(Debug)]
+pub struct Checked {
+    source: String,
+    program: Program,
+    warnings: Vec<Diagnostic>,
+}
+
+/// Parses and checks a `.surf` source: the checked program, or every diagnostic of it.
+///
+/// ```
+/// let checked = surfc::check("surface ball = x^2 + y^2 + z^2 - 1;")?;
+/// assert_eq!(checked.surfaces(), ["ball"]);
+///
+/// let errors = surfc::check("surface s = x + qq;").unwrap_err();
+/// assert_eq!(errors.diagnostics[0].code, "E0101");
+/// # Ok::<(), surfc::Errors>(())
+/// ```
+pub fn check(source: &str) -> Result<Checked, Errors> {
+    let (checked, diagnostics) = crate::cli::load::analyse(source);
+    match checked {
+        Some((_, program)) if !diag::has_errors(&diagnostics) => Ok(Checked {
+            source: source.to_owned(),
+            program,
+            warnings: diagnostics,
+        }),
+        _ => Err(Errors {
+            diagnostics,
+            source: source.to_owned(),
+        }),
+    }
+}
+
+impl Checked {
+    /// The warnings of the source (it has no errors).
+    pub fn warnings(&self) -> &[Diagnostic] {
+        &self.warnings
+    }
+
+    /// The names of the `surface` definitions, in source order.
+    pub fn surfaces(&self) -> Vec<&str> {
+        self.program
+            .surfaces
+            .iter()
+            .map(|s| s.name.as_str())
+            .collect()
+    }
+
+    /// The names of the `mesh` blocks, in source order.
+    pub fn mesh_blocks(&self) -> Vec<&str> {
+        self.program
+            .meshes
+            .iter()
+            .map(|m| m.name.as_str())
+            .collect()
+    }
+
+    /// Compiles the surface called `name` into a function of (x, y, z) with its gradient
+    /// (machine code where the platform allows, else the bytecode interpreter).
+    ///
+    /// ```
+    /// let checked = surfc::check("surface ball = x^2 + y^2 + z^2 - 4;")?;
+    /// let mut ball = checked.compile("ball")?;
+    /// assert_eq!(ball.value([2.0, 0.0, 0.0]), 0.0);
+    /// assert_eq!(ball.value_gradient([1.0, 2.0, 0.0]), (1.0, [2.0, 4.0, 0.0]));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn compile(&self, name: &str) -> Result<Function, CompileError> {
+        let Some(index) = self.program.surfaces.iter().position(|s| s.name == name) else {
+            return Err(CompileError::UnknownSurface {
+                name: name.to_owned(),
+                known: self.surfaces().join(", "),
+            });
+        };
+        let id = SurfaceId(u32::try_from(index).unwrap_or(u32::MAX));
+        let builder = Builder::new(&self.program, Engine::default());
+        // Foot-point tolerances of `dist` children are relative to a unit length here, as
+        // in `surfc eval`: there is no mesh step.
+        let surface = builder.surface(&SurfaceRef::Surface(id), 1.0)?;
+        Ok(Function { surface })
+    }
+
+    /// Meshes every mesh block, in source order, as `surfc mesh` does: each with its
+    /// report (topology, quality). Err holds the diagnostic of the first block that could
+    /// not be completed.
+    ///
+    /// ```
+    /// let source = "surface ball = x^2 + y^2 + z^2 - 1;\n\
+    ///               mesh ball = ball { step: 0.3; start: (1, 0, 0); }\n";
+    /// let meshes = surfc::check(source)?.mesh()?;
+    /// let report = &meshes[0].report;
+    /// assert_eq!((report.boundary_edges, report.euler_characteristic), (0, 2));
+    /// # Ok::<(), surfc::Errors>(())
+    /// ```
+    pub fn mesh(&self) -> Result<Vec<Meshed>, Errors> {
+        crate::cli::mesh::mesh_source(&self.source).map_err(|diagnostics| Errors {
+            diagnostics,
+            source: self.source.clone(),
+        })
+    }
+}
+
+/// A surface compiled by [`Checked::compile`]: f(x, y, z) and its gradient.
+pub struct Function {
+    surface: CompiledSurface,
+}
+
+impl Function {
+    /// f(p).
+    pub fn value(&mut self, p: [f64; 3]) -> f64 {
+        self.surface.value(DVec3::from_array(p))
+    }
+
+    /// f(p) and ∇f(p).
+    pub fn value_gradient(&mut self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        let vg = self.surface.value_gradient(DVec3::from_array(p));
+        (vg.value, vg.gradient.to_array())
+    }
+}
+
+impl std::fmt::Debug for Function {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Function").finish_non_exhaustive()
+    }
+}
+
+/// Why [`Checked::compile`] could not compile a surface.
+#[derive(Debug, thiserror::Error)]
+pub enum CompileError {
+    /// The source defines no surface of that name.
+    #[error("no surface `{name}`; the source defines: {known}")]
+    UnknownSurface {
+        /// The name asked for.
+        name: String,
+        /// The surfaces the source defines, comma-separated.
+        known: String,
+    },
+    /// The compiler could not compile the surface.
+    #[error(transparent)]
+    Compile(#[from] crate::compile::CompileError),
+}
+
+/// The meshes of [`Checked::mesh`] as [`write_mesh`] takes them: each with its block's name.
+pub fn named(meshed: &[Meshed]) -> Vec<NamedMesh<'_>> {
+    crate::cli::mesh::named(meshed)
+}
+
+/// Writes meshes in `format` as one file's bytes: one named object, group, node or region
+/// per mesh where the format has names (see `docs/formats.md`). A mesh that the format
+/// cannot hold (a non-finite coordinate, an index past its vertices) is refused before the
+/// first byte, as an [`io::ErrorKind::InvalidData`] error.
+///
+/// ```
+/// let source = "surface ball = x^2 + y^2 + z^2 - 1;\n\
+///               mesh ball = ball { step: 0.3; start: (1, 0, 0); }\n";
+/// let meshes = surfc::check(source)?.mesh()?;
+/// let mut obj = Vec::new();
+/// surfc::write_mesh(&mut obj, surfc::Format::Obj, &surfc::named(&meshes))?;
+/// let text = String::from_utf8(obj)?;
+/// assert!(text.contains("\no ball\ng ball\n"));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn write_mesh(out: &mut dyn Write, format: Format, meshes: &[NamedMesh]) -> io::Result<()> {
+    format.write(out, meshes)
+}

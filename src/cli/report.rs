@@ -1,0 +1,116 @@
+//! How a command fails: the exit code and what went wrong, as data. Every error is printed
+//! on stderr when it happens (diagnostics through codespan, other errors as one `error:`
+//! line); a command run with `--json` also prints them all on stdout as one object,
+//! `{"errors": [{code, severity, message, file, line, column}, …]}` (DESIGN.md §3), so that a
+//! script reading stdout always gets JSON.
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::{EXIT_INPUT, EXIT_USAGE};
+use crate::diag::{self, Diagnostic, Severity};
+
+/// The `code` of an error that is not a diagnostic about the input: a usage error (exit 2).
+pub const CODE_USAGE: &str = "usage";
+/// The `code` of an input or output failure: a file that cannot be read or written (exit 2).
+pub const CODE_IO: &str = "io";
+/// The `code` of an input error that has no diagnostic code of its own (exit 1).
+pub const CODE_INPUT: &str = "input";
+
+/// One entry of `{"errors": […]}`. `file`, `line` and `column` are null where the error has
+/// no place in a file (line and column are 1-based, the column in characters).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ErrorJson {
+    pub code: String,
+    pub severity: &'static str,
+    pub message: String,
+    pub file: Option<String>,
+    pub line: Option<usize>,
+    pub column: Option<usize>,
+}
+
+impl ErrorJson {
+    /// A diagnostic about `source` (read from `file`), placed at its primary label.
+    pub fn from_diagnostic(d: &Diagnostic, file: &str, source: &str) -> ErrorJson {
+        let place = d
+            .primary_span()
+            .map(|span| diag::line_column(source, span.start as usize));
+        ErrorJson {
+            code: d.code.to_owned(),
+            severity: match d.severity {
+                Severity::Error => "error",
+                Severity::Warning => "warning",
+            },
+            message: d.message.clone(),
+            file: Some(file.to_owned()),
+            line: place.map(|(line, _)| line),
+            column: place.map(|(_, column)| column),
+        }
+    }
+}
+
+/// A failed command: its exit code and its errors (already printed on stderr).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Failure {
+    pub exit: u8,
+    pub errors: Vec<ErrorJson>,
+}
+
+impl Failure {
+    /// Prints `error: MESSAGE` on stderr; a failure with that one error.
+    pub fn new(exit: u8, code: &str, message: String, file: Option<&Path>) -> Failure {
+        eprintln!("error: {message}");
+        Failure {
+            exit,
+            errors: vec![ErrorJson {
+                code: code.to_owned(),
+                severity: "error",
+                message,
+                file: file.map(|p| p.display().to_string()),
+                line: None,
+                column: None,
+            }],
+        }
+    }
+
+    /// A usage error (exit 2).
+    pub fn usage(message: String) -> Failure {
+        Failure::new(EXIT_USAGE, CODE_USAGE, message, None)
+    }
+
+    /// A file that cannot be read or written (exit 2).
+    pub fn io(message: String, file: &Path) -> Failure {
+        Failure::new(EXIT_USAGE, CODE_IO, message, Some(file))
+    }
+
+    /// Diagnostics about `source` (exit 1): printed on stderr, kept as JSON entries.
+    pub fn diagnostics(diags: &[Diagnostic], file: &str, source: &str, color: bool) -> Failure {
+        diag::emit_stderr(diags, file, source, color);
+        Failure {
+            exit: EXIT_INPUT,
+            errors: diags
+                .iter()
+                .map(|d| ErrorJson::from_diagnostic(d, file, source))
+                .collect(),
+        }
+    }
+
+    /// Ends a command: prints `{"errors": […]}` on stdout if `json`; the exit code.
+    pub fn finish(self, json: bool) -> u8 {
+        if json {
+            #[derive(Serialize)]
+            struct Errors {
+                errors: Vec<ErrorJson>,
+            }
+            let text = serde_json::to_string(&Errors {
+                errors: self.errors,
+            })
+            .unwrap_or_default();
+            // The exit code says the command failed; a stdout that cannot take the report
+            // does not change it.
+            let _ = super::print_stdout(&format!("{text}\n"));
+        }
+        self.exit
+    }
+}
