@@ -14,6 +14,8 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 pub struct MeshSummary<'a> {
     pub name: &'a str,
     pub triangles: usize,
+    /// Connected components of the mesh.
+    pub components: usize,
     /// Wall-clock time to make the mesh, in seconds.
     pub seconds: f64,
     /// Closed polygons of edges that belong to one triangle only.
@@ -26,19 +28,20 @@ pub struct MeshSummary<'a> {
 /// newline. Topology reads `watertight` for a closed manifold mesh, else counts its boundary
 /// loops and non-manifold edges.
 pub fn format_summary(rows: &[MeshSummary]) -> String {
-    let header = ["mesh", "triangles", "time", "topology"].map(String::from);
-    let lines: Vec<[String; 4]> = rows
+    let header = ["mesh", "triangles", "components", "time", "topology"].map(String::from);
+    let lines: Vec<[String; 5]> = rows
         .iter()
         .map(|r| {
             [
                 r.name.to_owned(),
                 r.triangles.to_string(),
+                r.components.to_string(),
                 duration(r.seconds),
                 topology(r),
             ]
         })
         .collect();
-    let mut widths = [0usize; 4];
+    let mut widths = [0usize; 5];
     for line in std::iter::once(&header).chain(&lines) {
         for (w, cell) in widths.iter_mut().zip(line) {
             *w = (*w).max(cell.chars().count());
@@ -49,14 +52,16 @@ pub fn format_summary(rows: &[MeshSummary]) -> String {
         let pad = |k: usize| " ".repeat(widths[k] - line[k].chars().count());
         // Names and topology to the left, numbers to the right.
         out.push_str(&format!(
-            "{}{}  {}{}  {}{}  {}\n",
+            "{}{}  {}{}  {}{}  {}{}  {}\n",
             line[0],
             pad(0),
             pad(1),
             line[1],
             pad(2),
             line[2],
-            line[3]
+            pad(3),
+            line[3],
+            line[4]
         ));
     }
     out
@@ -165,6 +170,7 @@ mod tests {
             MeshSummary {
                 name: "sphere",
                 triangles: 1544,
+                components: 1,
                 seconds: 0.0123,
                 boundary_loops: 0,
                 non_manifold_edges: 0,
@@ -172,6 +178,7 @@ mod tests {
             MeshSummary {
                 name: "sphere_six_holes",
                 triangles: 2206,
+                components: 1,
                 seconds: 1.5,
                 boundary_loops: 6,
                 non_manifold_edges: 0,
@@ -179,16 +186,17 @@ mod tests {
             MeshSummary {
                 name: "cap",
                 triangles: 12,
+                components: 2,
                 seconds: 0.0004,
                 boundary_loops: 1,
                 non_manifold_edges: 2,
             },
         ];
         let expected = "\
-mesh              triangles    time  topology
-sphere                 1544   12 ms  watertight
-sphere_six_holes       2206  1.50 s  6 boundary loops
-cap                      12    0 ms  1 boundary loop, 2 non-manifold edges
+mesh              triangles  components    time  topology
+sphere                 1544           1   12 ms  watertight
+sphere_six_holes       2206           1  1.50 s  6 boundary loops
+cap                      12           2    0 ms  1 boundary loop, 2 non-manifold edges
 ";
         assert_eq!(format_summary(&rows), expected);
     }
