@@ -185,7 +185,8 @@ fn cos(a: Interval) -> Interval {
 
 /// A 2π-periodic function with its maximum 1 at `crest` and minimum −1 at `trough`.
 fn periodic(a: Interval, f: fn(f64) -> f64, crest: f64, trough: f64) -> Interval {
-    if !(a.hi - a.lo < TAU) || !within_period_range(a) {
+    let narrow = a.hi - a.lo < TAU;
+    if !narrow || !within_period_range(a) {
         return Interval::new(-1.0, 1.0);
     }
     let mut r = Interval::of(&[f(a.lo), f(a.hi)]).widen();
@@ -206,7 +207,8 @@ fn within_period_range(a: Interval) -> bool {
 
 /// tan: increasing between its poles at π/2 + kπ; the whole line over a pole.
 fn tan(a: Interval) -> Interval {
-    if !(a.hi - a.lo < PI) || !within_period_range(a) || a.reaches(FRAC_PI_2, PI) {
+    let narrow = a.hi - a.lo < PI;
+    if !narrow || !within_period_range(a) || a.reaches(FRAC_PI_2, PI) {
         return Interval::ENTIRE;
     }
     a.increasing(f64::tan)
