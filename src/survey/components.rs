@@ -43,6 +43,9 @@ pub struct SearchSettings {
     /// error at the curvature the marcher meshes is well below it, and another sheet that
     /// close has the opposite normal.
     pub covered: f64,
+    /// The same within `face_margin · step` of the box's faces, where the marcher's last
+    /// triangles stop short of the box's edges and corners by up to a step. Default 1.0.
+    pub covered_at_faces: f64,
     /// Normals agree when their cosine is above this. Default 0.5.
     pub covered_normal_cos: f64,
     /// First pass: seeds closer than `face_margin · step` to a face of the box wait for the
@@ -62,6 +65,7 @@ impl Default for SearchSettings {
         SearchSettings {
             leaf: 1.0,
             covered: 0.3,
+            covered_at_faces: 1.0,
             covered_normal_cos: 0.5,
             face_margin: 0.5,
             small: 0.5,
@@ -128,6 +132,10 @@ pub struct Components {
     pub components: usize,
     /// The seed of each component.
     pub seeds: Vec<DVec3>,
+    /// The triangles of each component (they follow each other in `mesh.triangles`).
+    pub triangles: Vec<usize>,
+    /// Marches that gave a sheet meshed already, dropped (a seed the coverage test missed).
+    pub duplicates: usize,
     pub warnings: Vec<Warning>,
 }
 
@@ -346,9 +354,17 @@ impl Search<'_> {
 
     /// Marches a new component from `sp` unless a mesh already covers it.
     fn try_seed(&mut self, sp: &SurfacePoint) -> Result<(), SearchError> {
-        let reach = self.settings.covered * self.step;
+        let reach = self.step
+            * if self.away_from_faces(sp.point) {
+                self.settings.covered
+            } else {
+                self.settings.covered_at_faces
+            };
         let cos = self.settings.covered_normal_cos;
-        if self.cover.covered(&self.out.mesh, sp, reach, cos) {
+        if self
+            .cover
+            .covered(&self.out.mesh, sp.point, sp.normal, reach, cos)
+        {
             return Ok(());
         }
         // On a component smaller than the step the normals of nearby seeds point every way:
@@ -381,10 +397,43 @@ impl Search<'_> {
             }
         })?;
         self.limit = self.limit.saturating_sub(mesh.triangles.len() as u64);
+        if self.duplicates(&mesh) {
+            // A sheet meshed already (its seed was missed as covered where the earlier mesh
+            // stops short of the box's edges): kept once.
+            self.out.duplicates += 1;
+            return Ok(());
+        }
         self.cover.add(&mut self.out.mesh, &mesh);
         self.out.components += 1;
         self.out.seeds.push(sp.point);
+        self.out.triangles.push(mesh.triangles.len());
         Ok(())
+    }
+
+    /// Whether most of `part`'s vertices (a sample of up to `DUPLICATE_SAMPLES`) are covered
+    /// by the mesh so far: then `part` is a sheet meshed already.
+    fn duplicates(&self, part: &Mesh) -> bool {
+        let n = part.vertices.len();
+        if n == 0 || self.out.mesh.triangles.is_empty() {
+            return false;
+        }
+        let stride = n.div_ceil(DUPLICATE_SAMPLES);
+        let reach = self.settings.covered * self.step;
+        let cos = self.settings.covered_normal_cos;
+        let sampled = (0..n).step_by(stride);
+        let total = sampled.clone().count();
+        let covered = sampled
+            .filter(|&i| {
+                self.cover.covered(
+                    &self.out.mesh,
+                    part.vertices[i],
+                    part.normals[i],
+                    reach,
+                    cos,
+                )
+            })
+            .count();
+        2 * covered > total
     }
 
     /// Whether the surface closes up within the step around `sp`: the points of the Step 0
@@ -406,6 +455,9 @@ impl Search<'_> {
         })
     }
 }
+
+/// Vertices of a new component checked against the mesh so far ([`Search::duplicates`]).
+const DUPLICATE_SAMPLES: usize = 32;
 
 /// The triangles meshed so far, hashed by the cell (of side = step) of their centroid.
 struct Cover {
@@ -472,14 +524,15 @@ impl Cover {
         false
     }
 
-    /// Whether a triangle of `mesh` lies within `reach` of the seed with a normal agreeing
-    /// with the seed's (cosine above `cos`). Triangles have edges of about a step, so their
-    /// centroids are within a cell of any point within `reach` of them.
-    fn covered(&self, mesh: &Mesh, sp: &SurfacePoint, reach: f64, cos: f64) -> bool {
-        let [i, j, k] = self.key(sp.point);
-        for dk in -1..=1 {
-            for dj in -1..=1 {
-                for di in -1..=1 {
+    /// Whether a triangle of `mesh` lies within `reach` of `p` with a normal agreeing with
+    /// `normal` (cosine above `cos`). Triangles have edges of about a step, so their
+    /// centroids are within `reach` + a step of any point within `reach` of them.
+    fn covered(&self, mesh: &Mesh, p: DVec3, normal: DVec3, reach: f64, cos: f64) -> bool {
+        let [i, j, k] = self.key(p);
+        let r = 1 + (reach / self.cell).ceil() as i64;
+        for dk in -r..=r {
+            for dj in -r..=r {
+                for di in -r..=r {
                     let Some(ts) = self.triangles.get(&[i + di, j + dj, k + dk]) else {
                         continue;
                     };
@@ -487,8 +540,8 @@ impl Cover {
                         let [a, b, c] =
                             mesh.triangles[t as usize].map(|v| mesh.vertices[v as usize]);
                         let n = (b - a).cross(c - a).normalize_or_zero();
-                        if n.dot(sp.normal) > cos
-                            && (closest_on_triangle(sp.point, a, b, c) - sp.point).length() < reach
+                        if n.dot(normal) > cos
+                            && (closest_on_triangle(p, a, b, c) - p).length() < reach
                         {
                             return true;
                         }
