@@ -92,8 +92,8 @@ impl Interval {
             return self;
         }
         Interval {
-            lo: self.lo.next_down().next_down(),
-            hi: self.hi.next_up().next_up(),
+            lo: down(down(self.lo)),
+            hi: up(up(self.hi)),
         }
     }
 
@@ -135,6 +135,24 @@ impl Interval {
     }
 }
 
+/// The next float towards +∞ (`f64::next_up` needs Rust 1.86; the crate supports 1.85).
+fn up(x: f64) -> f64 {
+    if x.is_nan() || x == f64::INFINITY {
+        x
+    } else if x == 0.0 {
+        f64::from_bits(1)
+    } else if x > 0.0 {
+        f64::from_bits(x.to_bits() + 1)
+    } else {
+        f64::from_bits(x.to_bits() - 1)
+    }
+}
+
+/// The next float towards −∞.
+fn down(x: f64) -> f64 {
+    -up(-x)
+}
+
 /// 0·∞ = 0 in a product of ends: an end ±∞ is approached, not taken, by finite values, and a
 /// factor 0 keeps the product 0.
 fn mul_ends(a: f64, b: f64) -> f64 {
@@ -156,9 +174,9 @@ fn recip(a: Interval) -> Interval {
         a.decreasing(|v| 1.0 / v)
     } else if a.lo == 0.0 && a.hi > 0.0 {
         // The right half-line: 1/+0 = +∞.
-        Interval::new((1.0 / a.hi).next_down().next_down(), f64::INFINITY)
+        Interval::new(down(down(1.0 / a.hi)), f64::INFINITY)
     } else if a.hi == 0.0 && a.lo < 0.0 {
-        Interval::new(f64::NEG_INFINITY, (1.0 / a.lo).next_up().next_up())
+        Interval::new(f64::NEG_INFINITY, up(up(1.0 / a.lo)))
     } else {
         Interval::ENTIRE
     }

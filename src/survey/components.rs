@@ -248,22 +248,23 @@ pub fn mesh_components(
             cells: settings.max_cells,
         });
     }
-    // First pass: seeds away from the faces; what a cell gave is kept for the second.
-    let mut seeds: Vec<Option<Vec<SurfacePoint>>> = Vec::with_capacity(cells.len());
+    // First pass: seeds away from the faces; the others wait for the second.
+    let mut near_faces: Vec<SurfacePoint> = Vec::new();
     let mut unseeded: Vec<Cell> = Vec::new();
     for cell in &cells {
-        let found = search.seeds_of(*cell);
-        if found.is_none() {
+        let Some(found) = search.seeds_of(*cell) else {
             unseeded.push(*cell);
-        }
-        for sp in found.iter().flatten() {
+            continue;
+        };
+        for sp in found {
             if search.away_from_faces(sp.point) {
-                search.try_seed(sp)?;
+                search.try_seed(&sp)?;
+            } else {
+                near_faces.push(sp);
             }
         }
-        seeds.push(found);
     }
-    for sp in seeds.iter().flatten().flatten() {
+    for sp in &near_faces {
         search.try_seed(sp)?;
     }
     // A cell the marcher went through anyway is no gap.
@@ -529,7 +530,9 @@ impl Cover {
     /// centroids are within `reach` + a step of any point within `reach` of them.
     fn covered(&self, mesh: &Mesh, p: DVec3, normal: DVec3, reach: f64, cos: f64) -> bool {
         let [i, j, k] = self.key(p);
-        let r = 1 + (reach / self.cell).ceil() as i64;
+        // A triangle within `reach` has its centroid within `reach` + its circumradius
+        // (about 0.7 of a step for the marcher's edges) of p.
+        let r = (reach / self.cell + 0.7).ceil() as i64;
         for dk in -r..=r {
             for dj in -r..=r {
                 for di in -r..=r {
