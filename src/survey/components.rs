@@ -55,6 +55,11 @@ pub struct SearchSettings {
     /// closes up within the step) is a component smaller than the step: a warning, not a
     /// march. Default 0.5 (a sphere of diameter below about the step).
     pub small: f64,
+    /// A cell's seed must land within `seed_reach · step` of the cell. Default 1.0.
+    pub seed_reach: f64,
+    /// Newton steps from a cell's centre before its seed is given up (when it has not come
+    /// within 1 % of a step of the surface). Default 12.
+    pub seed_iterations: u32,
     /// Most octree cells bounded before the search gives up with a warning. Default
     /// 4 000 000 (a few seconds).
     pub max_cells: usize,
@@ -69,6 +74,8 @@ impl Default for SearchSettings {
             covered_normal_cos: 0.5,
             face_margin: 0.5,
             small: 0.5,
+            seed_reach: 1.0,
+            seed_iterations: 12,
             max_cells: 4_000_000,
         }
     }
@@ -306,23 +313,51 @@ impl Search<'_> {
         (p - lo).min_element() >= m && (hi - p).min_element() >= m
     }
 
-    /// The surface point from `p` if it converges inside the box.
-    fn seed_from(&mut self, p: DVec3) -> Option<SurfacePoint> {
+    /// The surface point from the centre of `cell`, if Newton reaches the surface within
+    /// `seed_iterations` steps without leaving the cell's neighbourhood (`seed_reach · step`
+    /// around it), and lands inside the box. A centre far from the surface is not this cell's
+    /// seed (a cell nearer the surface gives it): giving up early keeps the cells the interval
+    /// bound could not drop cheap.
+    fn seed_from(&mut self, cell: Cell) -> Option<SurfacePoint> {
+        let margin = DVec3::splat(self.settings.seed_reach * self.step);
+        let (lo, hi) = (cell.lo - margin, cell.hi + margin);
+        let near = |u: DVec3| u.cmpge(lo).all() && u.cmple(hi).all();
+        let mut u = cell.centre();
+        let mut close = false;
+        for _ in 0..self.settings.seed_iterations {
+            let vg = self.surface.value_gradient(u);
+            let g2 = vg.gradient.length_squared();
+            if !(vg.value.is_finite() && g2 > 0.0 && g2.is_finite()) {
+                return None;
+            }
+            let delta = vg.gradient * (vg.value / g2);
+            u -= delta;
+            if !near(u) {
+                return None;
+            }
+            if delta.length() < SEED_CLOSE * self.step {
+                close = true;
+                break;
+            }
+        }
+        if !close {
+            return None;
+        }
         let sp = surface_point(
             self.surface,
-            p,
+            u,
             self.step,
             &self.march_settings.surface_point,
         )
         .ok()?;
-        self.inside(sp.point).then_some(sp)
+        (near(sp.point) && self.inside(sp.point)).then_some(sp)
     }
 
     /// The seeds of a cell: from its centre, else from its octants' centres where f changes
     /// sign over the cell (otherwise the interval bound was only loose there). None when f
     /// changes sign but no seed converged in the box.
     fn seeds_of(&mut self, cell: Cell) -> Option<Vec<SurfacePoint>> {
-        if let Some(sp) = self.seed_from(cell.centre()) {
+        if let Some(sp) = self.seed_from(cell) {
             return Some(vec![sp]);
         }
         if !self.sign_changes(cell) {
@@ -331,7 +366,7 @@ impl Search<'_> {
         let found: Vec<SurfacePoint> = cell
             .octants()
             .into_iter()
-            .filter_map(|c| self.seed_from(c.centre()))
+            .filter_map(|c| self.seed_from(c))
             .collect();
         (!found.is_empty()).then_some(found)
     }
@@ -456,6 +491,10 @@ impl Search<'_> {
         })
     }
 }
+
+/// A seed's Newton iteration is close when its step is below this many steps; surfacepoint
+/// converges from there.
+const SEED_CLOSE: f64 = 0.01;
 
 /// Vertices of a new component checked against the mesh so far ([`Search::duplicates`]).
 const DUPLICATE_SAMPLES: usize = 32;
