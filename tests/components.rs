@@ -9,6 +9,7 @@ mod common;
 use std::cell::RefCell;
 
 use common::build::{build, checked};
+use common::rng::Rng;
 use common::voxel::solid_count;
 use glam::DVec3;
 use surfc::cli::mesh::{Meshed, mesh_source};
@@ -141,26 +142,6 @@ struct Scene {
     source: String,
     components: usize,
     euler: i64,
-}
-
-/// A small deterministic generator (xorshift64*).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
 }
 
 /// The step of the property test's meshes; every shape's smallest feature (semi-axis, tube

@@ -6,33 +6,13 @@
 mod common;
 
 use common::build::{build, checked};
+use common::rng::Rng;
 use glam::DVec3;
 use surfc::compile::tape::{Arity, Op};
 use surfc::eval::Interval;
 use surfc::eval::interval::interval;
 use surfc::eval::ops;
 use surfc::surface::Surface;
-
-/// A small deterministic generator (xorshift64*): the same cases on every run.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn pick<T: Copy>(&mut self, xs: &[T]) -> T {
-        xs[(self.next() % xs.len() as u64) as usize]
-    }
-}
 
 /// Values an interval end is drawn from: the edges where rules switch, and random ones.
 fn end(rng: &mut Rng) -> f64 {

@@ -86,6 +86,11 @@ impl Interval {
             .fold(Interval::EMPTY, |acc, &v| acc.hull(Interval::point(v)))
     }
 
+    /// The hull of f at the four corners of a × b (NaN values skipped).
+    fn corners(a: Interval, b: Interval, f: impl Fn(f64, f64) -> f64) -> Interval {
+        Interval::of(&[f(a.lo, b.lo), f(a.lo, b.hi), f(a.hi, b.lo), f(a.hi, b.hi)])
+    }
+
     /// Both ends moved outward by two ulps: covers the rounding of the rule that made them.
     fn widen(self) -> Interval {
         if self.is_empty() {
@@ -160,13 +165,7 @@ fn mul_ends(a: f64, b: f64) -> f64 {
 }
 
 fn mul(a: Interval, b: Interval) -> Interval {
-    let p = [
-        mul_ends(a.lo, b.lo),
-        mul_ends(a.lo, b.hi),
-        mul_ends(a.hi, b.lo),
-        mul_ends(a.hi, b.hi),
-    ];
-    Interval::of(&p).widen()
+    Interval::corners(a, b, mul_ends).widen()
 }
 
 fn recip(a: Interval) -> Interval {
@@ -278,13 +277,7 @@ fn pow(a: Interval, b: Interval) -> Interval {
     }
     // An infinite corner is approached, not taken: bound its limit by the largest finite
     // values near it instead of trusting powf's conventions (0^−∞ = ∞, 1^∞ = 1, …).
-    let corners = [
-        a.lo.powf(b.lo),
-        a.lo.powf(b.hi),
-        a.hi.powf(b.lo),
-        a.hi.powf(b.hi),
-    ];
-    let mut r = Interval::of(&corners);
+    let mut r = Interval::corners(a, b, f64::powf);
     if a.contains(1.0) {
         r = r.hull(Interval::point(1.0));
     }
@@ -306,13 +299,7 @@ fn atan2(a: Interval, b: Interval) -> Interval {
     if a.contains(0.0) && b.lo <= 0.0 {
         return pi;
     }
-    let corners = [
-        a.lo.atan2(b.lo),
-        a.lo.atan2(b.hi),
-        a.hi.atan2(b.lo),
-        a.hi.atan2(b.hi),
-    ];
-    let r = Interval::of(&corners).widen();
+    let r = Interval::corners(a, b, f64::atan2).widen();
     Interval::new(r.lo.max(pi.lo), r.hi.min(pi.hi))
 }
 

@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod build;
+pub mod rng;
 pub mod voxel;
 
 use glam::{DMat3, DVec3};
