@@ -2,6 +2,9 @@
 //! native closures and with the tapes compiled from the gallery files (what `surfc mesh` runs:
 //! native code; and on the interpreter), and the share of the time spent evaluating the
 //! surface (printed once per case, measured with a timing wrapper around the surface).
+//! `components/…`: genus 3 at step 0.3 meshed from its box alone (the component search of
+//! `survey::components`) against the same box with a start point, and the search's share of
+//! the time (printed once).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -14,6 +17,7 @@ use surfc::march::{MarchInput, MarchSettings, march};
 use surfc::sema::program::{SurfaceId, SurfaceRef};
 use surfc::surface::compiled::CompiledSurface;
 use surfc::surface::{NativeSurface, Surface, ValueGrad};
+use surfc::survey::components::{SearchSettings, mesh_components};
 
 fn sphere() -> impl Surface {
     NativeSurface(|p: DVec3| ValueGrad {
@@ -124,6 +128,64 @@ fn compiled(source: &str, name: &str) -> impl Fn() -> CompiledSurface {
     }
 }
 
+/// Genus 3 at step 0.3 in a box around it: meshed from the box alone (octree, seeds, march)
+/// and from a start point with the same box; the difference is the search.
+fn components(c: &mut Criterion, make: &dyn Fn() -> CompiledSurface) {
+    let (step, start) = (0.3, DVec3::new(0.0, 3.0, 0.0));
+    let bbox = (DVec3::new(-6.5, -4.0, -2.5), DVec3::new(6.5, 4.0, 2.5));
+    let settings = MarchSettings::default();
+    let search = SearchSettings::default();
+    let mut input = MarchInput::from_point(step, start);
+    input.bbox = Some(bbox);
+    let from_box = || {
+        let mut s = make();
+        mesh_components(&mut s, step, bbox, None, &settings, &search).map(|m| m.mesh)
+    };
+    let from_start = || {
+        let mut s = make();
+        march(&mut s, &input, &settings)
+    };
+    // The share: median of a few timed runs of each (after a warm-up of each).
+    let median = |f: &dyn Fn() -> usize| {
+        f();
+        let mut t: Vec<f64> = (0..9)
+            .map(|_| {
+                let t = Instant::now();
+                black_box(f());
+                t.elapsed().as_secs_f64()
+            })
+            .collect();
+        t.sort_by(f64::total_cmp);
+        t[t.len() / 2]
+    };
+    let count = |m: Result<surfc::mesh::Mesh, String>| m.map(|m| m.triangles.len()).unwrap_or(0);
+    let t_box = median(&|| count(from_box().map_err(|e| e.to_string())));
+    let t_start = median(&|| count(from_start().map_err(|e| e.to_string())));
+    let (cells, _) = surfc::survey::components::candidate_cells(
+        &mut make(),
+        bbox.0,
+        bbox.1,
+        search.leaf * step,
+        search.max_cells,
+    );
+    eprintln!(
+        "genus3_0.3 from its box: {:.2} ms, from a start with the box: {:.2} ms; the search is {:.0} % of the box run ({} octree leaves; {} triangles)",
+        t_box * 1e3,
+        t_start * 1e3,
+        100.0 * (t_box - t_start) / t_box,
+        cells.len(),
+        count(from_box().map_err(|e| e.to_string())),
+    );
+    let mut g = c.benchmark_group("components");
+    g.bench_function("genus3_0.3_box", |b| {
+        b.iter(|| black_box(from_box().is_ok()))
+    });
+    g.bench_function("genus3_0.3_start_and_box", |b| {
+        b.iter(|| black_box(from_start().is_ok()))
+    });
+    g.finish();
+}
+
 fn benches(c: &mut Criterion) {
     let s = DVec3::new(1.0, 1.0, 1.0);
     case(c, "sphere_0.3", sphere, 0.3, s);
@@ -149,6 +211,7 @@ fn benches(c: &mut Criterion) {
         0.01,
         s,
     );
+    components(c, &genus3_tape);
     case(c, "genus3_0.05_bytecode", &genus3_tape, 0.05, g);
     case(
         c,

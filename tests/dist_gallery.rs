@@ -10,50 +10,14 @@
 //! check, `compile_surface` with `dist` children as `ImplicitDist` / `PatchDist` whose
 //! foot tolerance has `scale` = the mesh step.
 
+mod common;
+
+use common::build::{build, checked};
 use glam::DVec3;
-use surfc::compile::{self, CompileError};
-use surfc::sema::program::{Program, SurfaceRef};
-use surfc::solve::tolerance::{FootTolerance, PatchFootTolerance};
-use surfc::surface::compiled::CompiledSurface;
-use surfc::surface::{ImplicitDist, PatchDist, Surface};
+use surfc::surface::Surface;
 
 /// DESIGN.md §6: vertices within this many steps of their surface.
 const VERTEX_ERROR_PER_STEP: f64 = 1e-9;
-
-fn checked(source: &str) -> Program {
-    let (file, diags) = surfc::syntax::parse(source);
-    assert!(diags.is_empty(), "parse diagnostics: {diags:?}");
-    let file = file.expect("a file without diagnostics parses");
-    let (program, diags) = surfc::sema::check(&file);
-    assert!(diags.is_empty(), "check diagnostics: {diags:?}");
-    program
-}
-
-/// Surface `r` with its `dist` children, as `surfc mesh` builds it for a mesh of step `scale`.
-fn build(program: &Program, r: &SurfaceRef, scale: f64) -> Result<CompiledSurface, CompileError> {
-    compile::compile_surface(program, r, &mut |target: &SurfaceRef| -> Result<
-        Box<dyn Surface>,
-        CompileError,
-    > {
-        let foot = FootTolerance {
-            scale,
-            ..FootTolerance::default()
-        };
-        Ok(match target {
-            SurfaceRef::Patch(id) => Box::new(PatchDist::with_tolerance(
-                Box::new(compile::compile_patch(program, *id)?),
-                PatchFootTolerance {
-                    foot,
-                    ..PatchFootTolerance::default()
-                },
-            )),
-            other => Box::new(ImplicitDist::with_tolerance(
-                Box::new(build(program, other, scale)?),
-                foot,
-            )),
-        })
-    })
-}
 
 /// |f|/|∇f| at p (infinite for NaN: a failed foot point is as bad as a wrong one).
 fn vertex_error(surface: &mut dyn Surface, p: DVec3) -> f64 {

@@ -151,3 +151,36 @@ fn usage_and_io_errors_exit_2_naming_the_path() {
     let (code, _, _) = surfc(&["mesh", "nowhere.surf"], &dir);
     assert_eq!(code, 2);
 }
+
+/// A box and no start: every component in the box; `components` and `warnings` in the JSON
+/// report, the warning (a ball smaller than the step) also on stderr, and the components
+/// column in the summary table.
+#[test]
+fn box_only_mesh_reports_components_and_warnings() {
+    let dir = scratch("components");
+    let file = write(
+        &dir,
+        "balls.surf",
+        "surface balls = min(x^2 + y^2 + z^2 - 1, min((x - 3)^2 + y^2 + z^2 - 1, (x - 1.5)^2 + (y - 1.5)^2 + z^2 - 0.0025));\n\
+         mesh balls = balls { step: 0.25; box: (-2, -2, -2) .. (5, 2, 2); }\n",
+    );
+    let (code, stdout, stderr) = surfc(&["mesh", &file, "--json"], &dir);
+    assert_eq!(code, 0, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    let m = &json["meshes"][0];
+    assert_eq!(m["components"], 2, "{m}");
+    assert_eq!(m["euler_characteristic"], 4, "{m}");
+    let warnings = m["warnings"].as_array().expect("warnings is a list");
+    assert_eq!(warnings.len(), 1, "{m}");
+    let w = warnings[0].as_str().expect("a string");
+    assert!(w.contains("smaller than the step"), "{w}");
+    assert!(
+        stderr.contains(&format!("warning: mesh `balls`: {w}")),
+        "{stderr}"
+    );
+    let header = stderr
+        .lines()
+        .find(|l| l.starts_with("mesh "))
+        .unwrap_or("");
+    assert!(header.contains("components"), "{stderr}");
+}

@@ -26,6 +26,9 @@ use crate::mesh::summary::{
 use crate::mesh::write::{Format, write_mesh_file};
 use crate::mesh::{Mesh, NamedMesh};
 use crate::sema::program::{MeshDef, Program, SurfaceRef};
+use crate::solve::surface_point_near;
+use crate::surface::compiled::CompiledSurface;
+use crate::survey::components::{self, SearchError, SearchSettings};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MeshFormat {
@@ -98,6 +101,7 @@ struct MeshJson<'a> {
     step: f64,
     #[serde(flatten)]
     report: MeshReport,
+    warnings: &'a [String],
     seconds: f64,
 }
 
@@ -116,6 +120,9 @@ pub struct Meshed {
     pub mesh: Mesh,
     /// Topology and quality of the triangles (the figures of `surfc mesh --json`).
     pub report: MeshReport,
+    /// What was not meshed and why, with its place (also printed on stderr): components
+    /// smaller than the step, regions where no seed converged.
+    pub warnings: Vec<String>,
     /// Wall-clock time to build and mesh the block, in seconds.
     pub seconds: f64,
 }
@@ -175,6 +182,11 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
     let loaded = load_reported(&args.file, color)?;
     let selected = select(&loaded, &args.only)?;
     let meshed = mesh_blocks(&loaded, &selected, color, args.quiet, args.engine.into())?;
+    for m in &meshed {
+        for w in &m.warnings {
+            eprintln!("warning: mesh `{}`: {w}", m.name);
+        }
+    }
 
     let meshes = named(&meshed);
     let written = match &output {
@@ -192,6 +204,7 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
                 surface: &m.surface,
                 step: m.step,
                 report: m.report.clone(),
+                warnings: &m.warnings,
                 seconds: m.seconds,
             })
             .collect();
@@ -223,6 +236,7 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
             .map(|m| MeshSummary {
                 name: &m.name,
                 triangles: m.report.triangles,
+                components: m.report.components,
                 seconds: m.seconds,
                 boundary_loops: m.report.boundary_loops,
                 non_manifold_edges: m.report.non_manifold_edges,
@@ -382,24 +396,6 @@ fn mesh_block(
     let mut surface = builder
         .surface(&def.surface, def.step)
         .map_err(|e| build_failed(e.into()))?;
-    let start = match (def.front, def.start) {
-        (Some(front), _) => Start::Front(
-            builder
-                .polygon_on(front, def.step, def.bbox, &mut surface)
-                .map_err(build_failed)?
-                .points,
-        ),
-        (None, Some(p)) => Start::Point(p),
-        // sema requires one of them; a program built elsewhere may not.
-        (None, None) => {
-            return Err(messages::mesh_failed(
-                &def.name,
-                def.span,
-                "it has neither `start` nor `front`",
-                None,
-            ));
-        }
-    };
     let mut bounds = Vec::with_capacity(def.bounds.len());
     for &b in &def.bounds {
         bounds.push(
@@ -409,6 +405,60 @@ fn mesh_block(
                 .points,
         );
     }
+    let failed =
+        |e: &MarchError| messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(e));
+    let settings = MarchSettings::default();
+    let mut warnings = Vec::new();
+    let start = match (def.front, def.start, def.bbox) {
+        (Some(front), _, _) => Start::Front(
+            builder
+                .polygon_on(front, def.step, def.bbox, &mut surface)
+                .map_err(build_failed)?
+                .points,
+        ),
+        (None, Some(p), _) => {
+            let sp = surface_point_near(&mut surface, p, def.step, &settings.surface_point)
+                .map_err(|e| {
+                    messages::mesh_failed(&def.name, def.span, &e.to_string(), Some(START_HELP))
+                })?;
+            Start::Point(sp.point)
+        }
+        (None, None, Some(bbox)) if bounds.is_empty() => {
+            let found = components::mesh_components(
+                &mut surface,
+                def.step,
+                bbox,
+                def.max_triangles,
+                &settings,
+                &SearchSettings::default(),
+            )
+            .map_err(|e| match &e {
+                SearchError::March { source, .. } => {
+                    messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(source))
+                }
+                _ => messages::mesh_failed(&def.name, def.span, &e.to_string(), None),
+            })?;
+            warnings.extend(found.warnings.iter().map(ToString::to_string));
+            return Ok(finish(
+                program,
+                source,
+                def,
+                &mut surface,
+                found.mesh,
+                warnings,
+                started,
+            ));
+        }
+        // sema requires one of them; a program built elsewhere may not.
+        (None, None, _) => {
+            let why = if def.bbox.is_some() {
+                "`bounds` need a `start` or a `front` to begin from"
+            } else {
+                "it has neither `start`, `front` nor `box`"
+            };
+            return Err(messages::mesh_failed(&def.name, def.span, why, None));
+        }
+    };
     let input = MarchInput {
         step: def.step,
         start,
@@ -416,21 +466,43 @@ fn mesh_block(
         bbox: def.bbox,
         max_triangles: def.max_triangles,
     };
-    let mesh =
-        march::march_with_progress(&mut surface, &input, &MarchSettings::default(), progress)
-            .map_err(|e| {
-                messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(&e))
-            })?;
-    let report = MeshReport::new(&mesh, &mut surface);
-    Ok(Meshed {
+    let mesh = march::march_with_progress(&mut surface, &input, &settings, progress)
+        .map_err(|e| failed(&e))?;
+    Ok(finish(
+        program,
+        source,
+        def,
+        &mut surface,
+        mesh,
+        warnings,
+        started,
+    ))
+}
+
+/// What the user may change when no surface point is found near `start`.
+const START_HELP: &str = "move `start` nearer the surface, or give the mesh a `box` and no `start` to mesh every component in it";
+
+/// The meshed block with its report.
+fn finish(
+    program: &Program,
+    source: &str,
+    def: &MeshDef,
+    surface: &mut CompiledSurface,
+    mesh: Mesh,
+    warnings: Vec<String>,
+    started: Instant,
+) -> Meshed {
+    let report = MeshReport::new(&mesh, surface);
+    Meshed {
         name: def.name.clone(),
         surface: surface_name(program, source, &def.surface),
         step: def.step,
         bbox: def.bbox,
         mesh,
         report,
+        warnings,
         seconds: started.elapsed().as_secs_f64(),
-    })
+    }
 }
 
 /// What the user may change when the marcher stops with `e`.

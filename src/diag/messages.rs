@@ -55,7 +55,7 @@ pub const CODES: &[(&str, &str)] = &[
     ("E0503", "missing `step`"),
     ("E0504", "non-positive `step`"),
     ("E0505", "`max_triangles` that is not a positive integer"),
-    ("E0506", "a mesh with neither `start` nor `front`"),
+    ("E0506", "a mesh with neither `start`, `front` nor `box`"),
     ("E0507", "an empty or inverted `box`"),
     ("E0508", "a mesh option with a value of the wrong shape"),
     ("E0509", "meshes sharing a curve with different steps"),
@@ -596,10 +596,10 @@ pub fn bad_max_triangles(span: Span, value: f64) -> Diagnostic {
 pub fn no_start(span: Span, mesh: &str) -> Diagnostic {
     Diagnostic::error(
         "E0506",
-        format!("mesh `{mesh}` has neither `start` nor `front`"),
+        format!("mesh `{mesh}` has neither `start`, `front` nor `box`"),
     )
-    .primary(span, "the marcher needs somewhere to begin")
-    .help("add `start: (x, y, z);` near the surface, or `front: CURVE;`")
+    .primary(span, "the marcher needs to know what to mesh")
+    .help("add `start: (x, y, z);` near the surface (the component through it), `front: CURVE;` (the area the curve starts), or `box: (x0, y0, z0) .. (x1, y1, z1);` (every component in the box)")
 }
 
 pub fn bad_box(span: Span, axis: &str, lo: f64, hi: f64) -> Diagnostic {

@@ -16,6 +16,7 @@
 //! the other [`Engine`], the reference the native code is tested against, and the fallback.
 //! `docs/compiler.md` has the measurements behind these choices.
 
+pub mod interval;
 pub mod native;
 pub mod ops;
 
@@ -23,6 +24,7 @@ use glam::DVec3;
 
 use crate::compile::tape::{Arity, Op, Reg, Tape};
 use crate::surface::{Surface, ValueGrad};
+pub use interval::Interval;
 pub use ops::Grad;
 
 /// Points per block of the gradient batch path. Measured on the genus-3 and blend benches
@@ -118,6 +120,8 @@ pub struct Vm {
     grads: Vec<Grad>,
     lane_values: Vec<Lanes>,
     lane_grads: Vec<GradLanes>,
+    /// The registers of an interval evaluation.
+    intervals: Vec<Interval>,
     /// The widest vector instructions the CPU has (checked once): the block loops run in a
     /// copy compiled for them. Results are bit-identical (Rust never contracts a·b + c into
     /// a fused multiply-add).
@@ -314,6 +318,7 @@ impl Vm {
             grads,
             lane_values: Vec::new(),
             lane_grads: Vec::new(),
+            intervals: Vec::new(),
             simd: Simd::detect(),
             masks,
             output_mask,
@@ -428,6 +433,48 @@ impl Vm {
         }
         self.run_grads(inputs);
         self.grads[self.tape.outputs()[0].index()]
+    }
+
+    /// An interval holding the first output's value at every point of the box `lo .. hi`
+    /// (its defined values: see [`interval`]). Interpreted, one interval per register; a
+    /// `dist` child gives its own bound ([`Surface::bound`]), or the whole line if it has
+    /// none. Inputs beyond the third read as [0, 0].
+    pub fn interval(&mut self, lo: DVec3, hi: DVec3) -> Interval {
+        let Vm {
+            tape,
+            children,
+            intervals: regs,
+            ..
+        } = self;
+        regs.clear();
+        regs.resize(tape.registers(), Interval::ENTIRE);
+        for (axis, r) in regs.iter_mut().enumerate().take(tape.inputs()) {
+            *r = if axis < 3 {
+                Interval::new(lo[axis], hi[axis])
+            } else {
+                Interval::point(0.0)
+            };
+        }
+        for (i, &c) in tape.constants().iter().enumerate() {
+            regs[tape.inputs() + i] = Interval::point(c);
+        }
+        let get = |regs: &[Interval], r: Reg| regs.get(r.index()).copied();
+        for ins in tape.instrs() {
+            let v = match ins.op {
+                Op::Dist => children
+                    .get_mut(ins.child().index())
+                    .and_then(|child| child.bound(lo, hi))
+                    .unwrap_or(Interval::ENTIRE),
+                op => match (get(regs, ins.a), get(regs, ins.b)) {
+                    (Some(a), Some(b)) => interval::interval(op, a, b),
+                    _ => Interval::ENTIRE,
+                },
+            };
+            if let Some(slot) = regs.get_mut(ins.out.index()) {
+                *slot = v;
+            }
+        }
+        get(regs, tape.outputs()[0]).unwrap_or(Interval::ENTIRE)
     }
 
     /// Every output with its partials, into `out` (as many as fit). Interpreted (patch tapes

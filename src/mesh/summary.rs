@@ -20,6 +20,8 @@ use super::quality::MeshReport;
 pub struct MeshSummary<'a> {
     pub name: &'a str,
     pub triangles: usize,
+    /// Connected components of the mesh.
+    pub components: usize,
     /// Wall-clock time to make the mesh, in seconds.
     pub seconds: f64,
     /// Closed polygons of edges that belong to one triangle only.
@@ -32,20 +34,21 @@ pub struct MeshSummary<'a> {
 /// newline. Topology reads `watertight` for a closed manifold mesh, else counts its boundary
 /// loops and non-manifold edges.
 pub fn format_summary(rows: &[MeshSummary]) -> String {
-    let header = ["mesh", "triangles", "time", "topology"].map(String::from);
-    let lines: Vec<[String; 4]> = rows
+    let header = ["mesh", "triangles", "components", "time", "topology"].map(String::from);
+    let lines: Vec<[String; 5]> = rows
         .iter()
         .map(|r| {
             [
                 r.name.to_owned(),
                 r.triangles.to_string(),
+                r.components.to_string(),
                 duration(r.seconds),
                 topology(r),
             ]
         })
         .collect();
     // Names and topology to the left, numbers to the right.
-    aligned(&header, &lines, &[0, 3])
+    aligned(&header, &lines, &[0, 4])
 }
 
 fn duration(seconds: f64) -> String {
@@ -253,6 +256,7 @@ mod tests {
             MeshSummary {
                 name: "sphere",
                 triangles: 1544,
+                components: 1,
                 seconds: 0.0123,
                 boundary_loops: 0,
                 non_manifold_edges: 0,
@@ -260,6 +264,7 @@ mod tests {
             MeshSummary {
                 name: "sphere_six_holes",
                 triangles: 2206,
+                components: 1,
                 seconds: 1.5,
                 boundary_loops: 6,
                 non_manifold_edges: 0,
@@ -267,16 +272,17 @@ mod tests {
             MeshSummary {
                 name: "cap",
                 triangles: 12,
+                components: 2,
                 seconds: 0.0004,
                 boundary_loops: 1,
                 non_manifold_edges: 2,
             },
         ];
         let expected = "\
-mesh              triangles    time  topology
-sphere                 1544   12 ms  watertight
-sphere_six_holes       2206  1.50 s  6 boundary loops
-cap                      12    0 ms  1 boundary loop, 2 non-manifold edges
+mesh              triangles  components    time  topology
+sphere                 1544           1   12 ms  watertight
+sphere_six_holes       2206           1  1.50 s  6 boundary loops
+cap                      12           2    0 ms  1 boundary loop, 2 non-manifold edges
 ";
         assert_eq!(format_summary(&rows), expected);
     }

@@ -652,13 +652,15 @@ impl<'f> Checker<'f> {
                 None => ok = false,
             }
         }
-        // A misspelt `start` or `front` is already reported as an unknown option.
-        if !seen.contains_key("start") && !seen.contains_key("front") && !unknown_options {
+        // With a box alone every component inside is meshed (DESIGN.md §2). A misspelt
+        // `start`, `front` or `box` is already reported as an unknown option.
+        let begins = ["start", "front", "box"]
+            .iter()
+            .any(|k| seen.contains_key(k));
+        if !begins && !unknown_options {
             self.diags.push(messages::no_start(name.span, &name.name));
         }
-        if !seen.contains_key("start") && !seen.contains_key("front") {
-            ok = false;
-        }
+        ok &= begins;
         if let (Some(s), Some(f)) = (seen.get("start"), seen.get("front")) {
             self.diags.push(messages::start_ignored(s.span, f.span));
         }

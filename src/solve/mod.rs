@@ -10,4 +10,6 @@ pub use foot::{
     Curvature, Foot, FootError, PatchFoot, PatchFootError, PatchGrid, foot_point,
     foot_point_hinted, patch_foot,
 };
-pub use surfacepoint::{SurfacePoint, SurfacePointError, surface_point, tangent_frame};
+pub use surfacepoint::{
+    StartError, SurfacePoint, SurfacePointError, surface_point, surface_point_near, tangent_frame,
+};

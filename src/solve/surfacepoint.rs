@@ -87,6 +87,79 @@ pub fn surface_point(
     })
 }
 
+/// Why no surface point was found near a start point, after [`surface_point_near`] retried
+/// from the points around it.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error("no surface point found from {start} ({}) nor from {retries} points around it: {first}", describe_distance(*.value, *.gradient))]
+pub struct StartError {
+    pub start: DVec3,
+    /// f and |∇f| at the start (how far from the surface it is: about |f|/|∇f|).
+    pub value: f64,
+    pub gradient: f64,
+    /// Points tried around the start.
+    pub retries: usize,
+    /// Why surfacepoint failed from the start itself.
+    pub first: SurfacePointError,
+}
+
+fn describe_distance(value: f64, gradient: f64) -> String {
+    if !value.is_finite() {
+        format!("where f is {value}")
+    } else if gradient > 0.0 && gradient.is_finite() {
+        format!(
+            "about {:.3} from the surface: f = {value:.3}, |∇f| = {gradient:.3}",
+            value.abs() / gradient
+        )
+    } else {
+        format!("where f = {value:.3} and the gradient vanishes")
+    }
+}
+
+/// How far the retries of [`surface_point_near`] move from the start, in steps: half a step
+/// first (off a centre of symmetry, where the gradient vanishes), then two (past a local
+/// feature that sends Newton astray).
+const RETRY_DISTANCES: [f64; 2] = [0.5, 2.0];
+
+/// surfacepoint from `q`, and if that fails, from the points `RETRY_DISTANCES` steps away
+/// along ±x, ±y, ±z (in that order; the first that converges wins). A start at the centre of
+/// a sphere, where the gradient vanishes, thus still finds the sphere.
+pub fn surface_point_near(
+    surface: &mut dyn Surface,
+    q: DVec3,
+    scale: f64,
+    tolerance: &SurfacePointTolerance,
+) -> Result<SurfacePoint, StartError> {
+    let first = match surface_point(surface, q, scale, tolerance) {
+        Ok(sp) => return Ok(sp),
+        Err(e) => e,
+    };
+    let axes = [
+        DVec3::X,
+        -DVec3::X,
+        DVec3::Y,
+        -DVec3::Y,
+        DVec3::Z,
+        -DVec3::Z,
+    ];
+    let mut retries = 0;
+    for r in RETRY_DISTANCES {
+        for d in axes {
+            retries += 1;
+            if let Ok(sp) = surface_point(surface, q + d * (r * scale), scale, tolerance) {
+                return Ok(sp);
+            }
+        }
+    }
+    let vg = surface.value_gradient(q);
+    Err(StartError {
+        start: q,
+        value: vg.value,
+        gradient: vg.gradient.length(),
+        retries,
+        first,
+    })
+}
+
 /// The paper's tangents for a unit normal n, with the absolute values its text lacks (without
 /// them t1 degenerates for n ≈ (0, −1, 0)): t1 ⊥ n, t2 = n × t1, both unit.
 pub fn tangent_frame(n: DVec3) -> (DVec3, DVec3) {

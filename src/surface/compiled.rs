@@ -6,7 +6,7 @@ use glam::DVec3;
 use super::{Patch, PatchJet, Surface, ValueGrad};
 use crate::compile::tape::Tape;
 use crate::eval::native::NativeError;
-use crate::eval::{Engine, Grad, Vm, VmError};
+use crate::eval::{Engine, Grad, Interval, Vm, VmError};
 
 /// An implicit surface f(x, y, z) = 0 evaluated from its tape.
 #[derive(Debug)]
@@ -59,6 +59,11 @@ impl Surface for CompiledSurface {
             value: g.v,
             gradient: DVec3::new(g.dx, g.dy, g.dz),
         }
+    }
+
+    /// The tape run on intervals (interpreted: the search asks a few thousand cells).
+    fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
+        Some(self.vm.interval(lo, hi))
     }
 }
 

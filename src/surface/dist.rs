@@ -21,6 +21,7 @@
 use glam::DVec3;
 
 use super::{Patch, Surface, ValueGrad};
+use crate::eval::Interval;
 use crate::solve::foot::{
     Curvature, Foot, FootError, PatchFoot, PatchFootError, PatchGrid, foot_point,
     foot_point_hinted, patch_foot,
@@ -32,6 +33,19 @@ const FAILED: ValueGrad = ValueGrad {
     value: f64::NAN,
     gradient: DVec3::NAN,
 };
+
+/// A distance is 1-Lipschitz: over a box it lies within the half-diagonal of its value at
+/// the centre. None when the centre has no foot point.
+fn lipschitz_bound(d: &mut dyn Surface, lo: DVec3, hi: DVec3) -> Option<Interval> {
+    let centre = d.value((lo + hi) * 0.5);
+    let r = (hi - lo).length() * 0.5;
+    // Outward by a few ulps of the ends, and by the foot point's convergence error
+    // (relative to the distance, far below the half-diagonal of a cell).
+    let slack = 1e-9 * (centre.abs() + r);
+    centre
+        .is_finite()
+        .then(|| Interval::new(centre - r - slack, centre + r + slack))
+}
 
 /// The oriented distance to an implicit surface f = 0: negative where f < 0.
 pub struct ImplicitDist {
@@ -92,6 +106,10 @@ impl Surface for ImplicitDist {
             },
             Err(_) => FAILED,
         }
+    }
+
+    fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
+        lipschitz_bound(self, lo, hi)
     }
 }
 
@@ -156,5 +174,9 @@ impl Surface for PatchDist {
             },
             Err(_) => FAILED,
         }
+    }
+
+    fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
+        lipschitz_bound(self, lo, hi)
     }
 }

@@ -8,6 +8,8 @@ use glam::DVec3;
 
 pub mod dist;
 
+use crate::eval::Interval;
+
 pub use dist::{ImplicitDist, PatchDist};
 
 /// f(p) and ∇f(p) at one point.
@@ -31,6 +33,14 @@ pub trait Surface {
 
     /// f(p) and ∇f(p).
     fn value_gradient(&mut self, p: DVec3) -> ValueGrad;
+
+    /// An interval holding f(p) for every p of the box `lo ..= hi` where f(p) is defined
+    /// (not NaN), or None when the surface cannot bound itself (then nothing may be
+    /// concluded; the component search keeps every cell). Default: None.
+    fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
+        let _ = (lo, hi);
+        None
+    }
 }
 
 impl<S: Surface + ?Sized> Surface for Box<S> {
@@ -40,6 +50,9 @@ impl<S: Surface + ?Sized> Surface for Box<S> {
     fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
         (**self).value_gradient(p)
     }
+    fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
+        (**self).bound(lo, hi)
+    }
 }
 
 impl<S: Surface + ?Sized> Surface for &mut S {
@@ -48,6 +61,9 @@ impl<S: Surface + ?Sized> Surface for &mut S {
     }
     fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
         (**self).value_gradient(p)
+    }
+    fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
+        (**self).bound(lo, hi)
     }
 }
 

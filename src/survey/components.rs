@@ -1,0 +1,667 @@
+//! The component search (DESIGN.md §4a *Components*): every component of a surface inside a
+//! box, without a start point. Input: the surface oracle, the step, the box; output: one mesh
+//! holding every component the marcher made from the seeds found, the number of components,
+//! and warnings (with their places) for what could not be meshed.
+//!
+//! 1. An octree over the box: a cell whose interval bound ([`Surface::bound`]) excludes 0
+//!    cannot hold the surface and is dropped; the others are split down to cells whose
+//!    longest side is about the step (`SearchSettings::leaf`).
+//! 2. Each remaining cell, in octree order, gives a seed: surfacepoint from its centre (or,
+//!    when that does not converge or leaves the box while the cell shows a sign change, from
+//!    the centres of its eight octants). A seed inside the box that no mesh covers yet — no
+//!    triangle within `covered · step` whose normal agrees with the seed's: two sheets
+//!    closer than the step have opposite normals, so they are never mistaken for one — starts
+//!    a new component, marched with `march::march` from that point and the box.
+//! 3. Seeds at least `face_margin · step` from the box's faces go first (a hexagon at a face
+//!    would leave slivers), the others after, so a component that touches the box only near
+//!    a face is still found.
+//!
+//! Deterministic: the cells, their seeds and the components follow one fixed order, so the
+//! same surface gives the same mesh, bit for bit. A component smaller than the step (the
+//! hexagon of Step 0 does not fit on it) and a cell with a sign change where no seed
+//! converges are warnings, never silently dropped; a component the marcher cannot complete
+//! is an error, as for a start point.
+
+use std::collections::HashMap;
+use std::fmt;
+
+use glam::DVec3;
+
+use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
+use crate::mesh::Mesh;
+use crate::solve::{SurfacePoint, surface_point};
+use crate::surface::Surface;
+
+/// Settings of the component search. Lengths are multiples of the step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SearchSettings {
+    /// Octree cells are split until their longest side is at most `leaf · step`. Default
+    /// 1.0: a component larger than the step holds a cell's worth of surface.
+    pub leaf: f64,
+    /// A seed is covered when a triangle of the mesh so far lies within `covered · step` of
+    /// it with a normal that agrees (`covered_normal_cos`). Default 0.3: a triangle's chord
+    /// error at the curvature the marcher meshes is well below it, and another sheet that
+    /// close has the opposite normal.
+    pub covered: f64,
+    /// The same within `face_margin · step` of the box's faces, where the marcher's last
+    /// triangles stop short of the box's edges and corners by up to a step. Default 1.0.
+    pub covered_at_faces: f64,
+    /// Normals agree when their cosine is above this. Default 0.5.
+    pub covered_normal_cos: f64,
+    /// First pass: seeds closer than `face_margin · step` to a face of the box wait for the
+    /// second pass. Default 0.5.
+    pub face_margin: f64,
+    /// A seed whose Step 0 hexagon points land within `small · step` of it (the surface
+    /// closes up within the step) is a component smaller than the step: a warning, not a
+    /// march. Default 0.5 (a sphere of diameter below about the step).
+    pub small: f64,
+    /// A cell's seed must land within `seed_reach · step` of the cell. Default 1.0.
+    pub seed_reach: f64,
+    /// Newton steps from a cell's centre before its seed is given up (when it has not come
+    /// within 1 % of a step of the surface). Default 12.
+    pub seed_iterations: u32,
+    /// Most octree cells bounded before the search gives up with a warning. Default
+    /// 4 000 000 (a few seconds).
+    pub max_cells: usize,
+}
+
+impl Default for SearchSettings {
+    fn default() -> Self {
+        SearchSettings {
+            leaf: 1.0,
+            covered: 0.3,
+            covered_at_faces: 1.0,
+            covered_normal_cos: 0.5,
+            face_margin: 0.5,
+            small: 0.5,
+            seed_reach: 1.0,
+            seed_iterations: 12,
+            max_cells: 4_000_000,
+        }
+    }
+}
+
+/// Something the search could not mesh, with its place.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Warning {
+    /// A component the Step 0 hexagon does not fit on.
+    SmallComponent { at: DVec3 },
+    /// Cells where f changes sign but no seed converged onto the surface in the box.
+    NoSeed { at: DVec3, cells: usize },
+    /// The octree reached `max_cells`; cells beyond were not searched.
+    CellLimit { cells: usize },
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let p = |p: DVec3| format!("({}, {}, {})", p.x, p.y, p.z);
+        match self {
+            Warning::SmallComponent { at } => write!(
+                f,
+                "a component near {} is smaller than the step and was not meshed",
+                p(*at)
+            ),
+            Warning::NoSeed { at, cells: 1 } => write!(
+                f,
+                "the surface crosses the cell around {} but no surface point converged there; a smaller step may reach it",
+                p(*at)
+            ),
+            Warning::NoSeed { at, cells } => write!(
+                f,
+                "the surface crosses {cells} cells (the first around {}) but no surface point converged there; a smaller step may reach it",
+                p(*at)
+            ),
+            Warning::CellLimit { cells } => write!(
+                f,
+                "the component search stopped after {cells} cells; parts of the box were not searched"
+            ),
+        }
+    }
+}
+
+/// Why the search could not complete.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SearchError {
+    #[error("the step {step} is not a positive finite number")]
+    InvalidStep { step: f64 },
+    #[error("the box {lo} .. {hi} is empty or not finite")]
+    InvalidBox { lo: DVec3, hi: DVec3 },
+    /// The marcher failed on the component found at `seed`.
+    #[error("the component found at {seed}: {source}")]
+    March { seed: DVec3, source: MarchError },
+}
+
+/// Every component found in the box, joined into one mesh in the order found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Components {
+    pub mesh: Mesh,
+    /// Components marched.
+    pub components: usize,
+    /// The seed of each component.
+    pub seeds: Vec<DVec3>,
+    /// The triangles of each component (they follow each other in `mesh.triangles`).
+    pub triangles: Vec<usize>,
+    /// Marches that gave a sheet meshed already, dropped (a seed the coverage test missed).
+    pub duplicates: usize,
+    pub warnings: Vec<Warning>,
+}
+
+/// An axis-aligned cell of the octree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    pub lo: DVec3,
+    pub hi: DVec3,
+}
+
+impl Cell {
+    pub fn centre(self) -> DVec3 {
+        (self.lo + self.hi) * 0.5
+    }
+
+    /// The children: each side longer than half the longest (and than `leaf`) is halved,
+    /// so cells of a flat box become near-cubic before they shrink. In a fixed order.
+    fn split(self, leaf: f64) -> Vec<Cell> {
+        let size = self.hi - self.lo;
+        let longest = size.max_element();
+        let mid = self.centre();
+        let halve = [0, 1, 2].map(|k| size[k] > leaf && size[k] >= 0.5 * longest);
+        let mut cells = vec![self];
+        for k in 0..3 {
+            if !halve[k] {
+                continue;
+            }
+            cells = cells
+                .into_iter()
+                .flat_map(|c| {
+                    let (mut a, mut b) = (c, c);
+                    a.hi[k] = mid[k];
+                    b.lo[k] = mid[k];
+                    [a, b]
+                })
+                .collect();
+        }
+        cells
+    }
+
+    fn octants(self) -> Vec<Cell> {
+        self.split(0.0)
+    }
+}
+
+/// The octree's leaves: the cells of about `leaf` size whose interval bound does not
+/// exclude 0, in depth-first order, and whether `max_cells` cut the search short.
+pub fn candidate_cells(
+    surface: &mut dyn Surface,
+    lo: DVec3,
+    hi: DVec3,
+    leaf: f64,
+    max_cells: usize,
+) -> (Vec<Cell>, bool) {
+    let mut leaves = Vec::new();
+    let mut stack = vec![Cell { lo, hi }];
+    let mut visited = 0usize;
+    while let Some(cell) = stack.pop() {
+        visited += 1;
+        if visited > max_cells {
+            return (leaves, true);
+        }
+        let may_hold = surface
+            .bound(cell.lo, cell.hi)
+            .is_none_or(|i| i.contains(0.0));
+        if !may_hold {
+            continue;
+        }
+        if (cell.hi - cell.lo).max_element() <= leaf {
+            leaves.push(cell);
+        } else {
+            // Reversed, so that the first child is searched first.
+            stack.extend(cell.split(leaf).into_iter().rev());
+        }
+    }
+    (leaves, false)
+}
+
+/// Meshes every component of `surface` inside `lo .. hi` (the module documentation).
+/// `max_triangles` bounds the total, as `MarchInput::max_triangles` bounds one march.
+pub fn mesh_components(
+    surface: &mut dyn Surface,
+    step: f64,
+    (lo, hi): (DVec3, DVec3),
+    max_triangles: Option<u64>,
+    march_settings: &MarchSettings,
+    settings: &SearchSettings,
+) -> Result<Components, SearchError> {
+    if !(step.is_finite() && step > 0.0) {
+        return Err(SearchError::InvalidStep { step });
+    }
+    if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
+        return Err(SearchError::InvalidBox { lo, hi });
+    }
+    let (cells, truncated) =
+        candidate_cells(surface, lo, hi, settings.leaf * step, settings.max_cells);
+    let mut search = Search {
+        surface,
+        step,
+        bbox: (lo, hi),
+        march_settings,
+        settings,
+        limit: max_triangles.unwrap_or(march_settings.max_triangles),
+        cover: Cover::new(step),
+        out: Components::default(),
+        small: Vec::new(),
+    };
+    if truncated {
+        search.out.warnings.push(Warning::CellLimit {
+            cells: settings.max_cells,
+        });
+    }
+    // First pass: seeds away from the faces; the others wait for the second.
+    let mut near_faces: Vec<SurfacePoint> = Vec::new();
+    let mut unseeded: Vec<Cell> = Vec::new();
+    for cell in &cells {
+        let Some(found) = search.seeds_of(*cell) else {
+            unseeded.push(*cell);
+            continue;
+        };
+        for sp in found {
+            if search.away_from_faces(sp.point) {
+                search.try_seed(&sp)?;
+            } else {
+                near_faces.push(sp);
+            }
+        }
+    }
+    for sp in &near_faces {
+        search.try_seed(sp)?;
+    }
+    // A cell the marcher went through anyway is no gap.
+    let Search { cover, out, .. } = &mut search;
+    unseeded.retain(|c| !cover.touches(&out.mesh, *c));
+    if let Some(first) = unseeded.first() {
+        out.warnings.push(Warning::NoSeed {
+            at: first.centre(),
+            cells: unseeded.len(),
+        });
+    }
+    Ok(search.out)
+}
+
+/// The state of one search.
+struct Search<'a> {
+    surface: &'a mut dyn Surface,
+    step: f64,
+    bbox: (DVec3, DVec3),
+    march_settings: &'a MarchSettings,
+    settings: &'a SearchSettings,
+    /// Triangles left for the components still to come.
+    limit: u64,
+    cover: Cover,
+    out: Components,
+    /// Seeds of components smaller than the step (warned once).
+    small: Vec<SurfacePoint>,
+}
+
+impl Search<'_> {
+    fn inside(&self, p: DVec3) -> bool {
+        let (lo, hi) = self.bbox;
+        p.cmpge(lo).all() && p.cmple(hi).all()
+    }
+
+    fn away_from_faces(&self, p: DVec3) -> bool {
+        let (lo, hi) = self.bbox;
+        let m = self.settings.face_margin * self.step;
+        (p - lo).min_element() >= m && (hi - p).min_element() >= m
+    }
+
+    /// The surface point from the centre of `cell`, if Newton reaches the surface within
+    /// `seed_iterations` steps without leaving the cell's neighbourhood (`seed_reach · step`
+    /// around it), and lands inside the box. A centre far from the surface is not this cell's
+    /// seed (a cell nearer the surface gives it): giving up early keeps the cells the interval
+    /// bound could not drop cheap.
+    fn seed_from(&mut self, cell: Cell) -> Option<SurfacePoint> {
+        let margin = DVec3::splat(self.settings.seed_reach * self.step);
+        let (lo, hi) = (cell.lo - margin, cell.hi + margin);
+        let near = |u: DVec3| u.cmpge(lo).all() && u.cmple(hi).all();
+        let mut u = cell.centre();
+        let mut close = false;
+        for _ in 0..self.settings.seed_iterations {
+            let vg = self.surface.value_gradient(u);
+            let g2 = vg.gradient.length_squared();
+            if !(vg.value.is_finite() && g2 > 0.0 && g2.is_finite()) {
+                return None;
+            }
+            let delta = vg.gradient * (vg.value / g2);
+            u -= delta;
+            if !near(u) {
+                return None;
+            }
+            if delta.length() < SEED_CLOSE * self.step {
+                close = true;
+                break;
+            }
+        }
+        if !close {
+            return None;
+        }
+        let sp = surface_point(
+            self.surface,
+            u,
+            self.step,
+            &self.march_settings.surface_point,
+        )
+        .ok()?;
+        (near(sp.point) && self.inside(sp.point)).then_some(sp)
+    }
+
+    /// The seeds of a cell: from its centre, else from its octants' centres where f changes
+    /// sign over the cell (otherwise the interval bound was only loose there). None when f
+    /// changes sign but no seed converged in the box.
+    fn seeds_of(&mut self, cell: Cell) -> Option<Vec<SurfacePoint>> {
+        if let Some(sp) = self.seed_from(cell) {
+            return Some(vec![sp]);
+        }
+        if !self.sign_changes(cell) {
+            return Some(Vec::new());
+        }
+        let found: Vec<SurfacePoint> = cell
+            .octants()
+            .into_iter()
+            .filter_map(|c| self.seed_from(c))
+            .collect();
+        (!found.is_empty()).then_some(found)
+    }
+
+    /// Whether f takes both signs at the corners and centre of the cell.
+    fn sign_changes(&mut self, cell: Cell) -> bool {
+        let (mut neg, mut pos) = (false, false);
+        let corners = (0..8).map(|i| {
+            let pick = |k: usize, bit: usize| {
+                if i & bit == 0 { cell.lo[k] } else { cell.hi[k] }
+            };
+            DVec3::new(pick(0, 1), pick(1, 2), pick(2, 4))
+        });
+        for p in corners.chain([cell.centre()]) {
+            let v = self.surface.value(p);
+            neg |= v < 0.0;
+            pos |= v > 0.0;
+        }
+        neg && pos
+    }
+
+    /// Marches a new component from `sp` unless a mesh already covers it.
+    fn try_seed(&mut self, sp: &SurfacePoint) -> Result<(), SearchError> {
+        let reach = self.step
+            * if self.away_from_faces(sp.point) {
+                self.settings.covered
+            } else {
+                self.settings.covered_at_faces
+            };
+        let cos = self.settings.covered_normal_cos;
+        if self
+            .cover
+            .covered(&self.out.mesh, sp.point, sp.normal, reach, cos)
+        {
+            return Ok(());
+        }
+        // On a component smaller than the step the normals of nearby seeds point every way:
+        // distance alone tells the seeds of one small component.
+        let near_small = self
+            .small
+            .iter()
+            .any(|s| (s.point - sp.point).length() < self.step);
+        if near_small {
+            return Ok(());
+        }
+        if self.is_small(sp) {
+            self.small.push(*sp);
+            self.out
+                .warnings
+                .push(Warning::SmallComponent { at: sp.point });
+            return Ok(());
+        }
+        let input = MarchInput {
+            step: self.step,
+            start: Start::Point(sp.point),
+            bounds: Vec::new(),
+            bbox: Some(self.bbox),
+            max_triangles: Some(self.limit.max(1)),
+        };
+        let mesh = march::march(self.surface, &input, self.march_settings).map_err(|source| {
+            SearchError::March {
+                seed: sp.point,
+                source,
+            }
+        })?;
+        self.limit = self.limit.saturating_sub(mesh.triangles.len() as u64);
+        if self.duplicates(&mesh) {
+            // A sheet meshed already (its seed was missed as covered where the earlier mesh
+            // stops short of the box's edges): kept once.
+            self.out.duplicates += 1;
+            return Ok(());
+        }
+        self.cover.add(&mut self.out.mesh, &mesh);
+        self.out.components += 1;
+        self.out.seeds.push(sp.point);
+        self.out.triangles.push(mesh.triangles.len());
+        Ok(())
+    }
+
+    /// Whether most of `part`'s vertices (a sample of up to `DUPLICATE_SAMPLES`) are covered
+    /// by the mesh so far: then `part` is a sheet meshed already.
+    fn duplicates(&self, part: &Mesh) -> bool {
+        let n = part.vertices.len();
+        if n == 0 || self.out.mesh.triangles.is_empty() {
+            return false;
+        }
+        let stride = n.div_ceil(DUPLICATE_SAMPLES);
+        let reach = self.settings.covered * self.step;
+        let cos = self.settings.covered_normal_cos;
+        let sampled = (0..n).step_by(stride);
+        let total = sampled.clone().count();
+        let covered = sampled
+            .filter(|&i| {
+                self.cover.covered(
+                    &self.out.mesh,
+                    part.vertices[i],
+                    part.normals[i],
+                    reach,
+                    cos,
+                )
+            })
+            .count();
+        2 * covered > total
+    }
+
+    /// Whether the surface closes up within the step around `sp`: the points of the Step 0
+    /// hexagon, put on the surface, come back within `small · step` of it (or do not
+    /// converge at all).
+    fn is_small(&mut self, sp: &SurfacePoint) -> bool {
+        (0..6).any(|i| {
+            let w = i as f64 * std::f64::consts::FRAC_PI_3;
+            let q = sp.point + self.step * (w.cos() * sp.t1 + w.sin() * sp.t2);
+            match surface_point(
+                self.surface,
+                q,
+                self.step,
+                &self.march_settings.surface_point,
+            ) {
+                Ok(r) => (r.point - sp.point).length() < self.settings.small * self.step,
+                Err(_) => true,
+            }
+        })
+    }
+}
+
+/// A seed's Newton iteration is close when its step is below this many steps; surfacepoint
+/// converges from there.
+const SEED_CLOSE: f64 = 0.01;
+
+/// Vertices of a new component checked against the mesh so far ([`Search::duplicates`]).
+const DUPLICATE_SAMPLES: usize = 32;
+
+/// The triangles meshed so far, hashed by the cell (of side = step) of their centroid.
+struct Cover {
+    cell: f64,
+    triangles: HashMap<[i64; 3], Vec<u32>>,
+}
+
+impl Cover {
+    fn new(step: f64) -> Cover {
+        Cover {
+            cell: step,
+            triangles: HashMap::new(),
+        }
+    }
+
+    fn key(&self, p: DVec3) -> [i64; 3] {
+        // Saturating float-to-int casts: a point far out stays in an edge cell.
+        (p / self.cell).floor().to_array().map(|c| c as i64)
+    }
+
+    /// Appends `part` to `mesh` and hashes its triangles.
+    fn add(&mut self, mesh: &mut Mesh, part: &Mesh) {
+        let offset = mesh.vertices.len() as u32;
+        let first = mesh.triangles.len() as u32;
+        mesh.vertices.extend_from_slice(&part.vertices);
+        mesh.normals.extend_from_slice(&part.normals);
+        mesh.triangles
+            .extend(part.triangles.iter().map(|t| t.map(|v| v + offset)));
+        for (t, tri) in mesh.triangles.iter().enumerate().skip(first as usize) {
+            let c = tri
+                .iter()
+                .map(|&v| mesh.vertices[v as usize])
+                .sum::<DVec3>()
+                / 3.0;
+            self.triangles
+                .entry(self.key(c))
+                .or_default()
+                .push(t as u32);
+        }
+    }
+
+    /// Whether a vertex of `mesh` lies in the cell.
+    fn touches(&self, mesh: &Mesh, cell: Cell) -> bool {
+        let (lo, hi) = (self.key(cell.lo - self.cell), self.key(cell.hi + self.cell));
+        for k in lo[2]..=hi[2] {
+            for j in lo[1]..=hi[1] {
+                for i in lo[0]..=hi[0] {
+                    let Some(ts) = self.triangles.get(&[i, j, k]) else {
+                        continue;
+                    };
+                    let inside = |v: &u32| {
+                        let p = mesh.vertices[*v as usize];
+                        p.cmpge(cell.lo).all() && p.cmple(cell.hi).all()
+                    };
+                    if ts
+                        .iter()
+                        .any(|&t| mesh.triangles[t as usize].iter().any(inside))
+                    {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    /// Whether a triangle of `mesh` lies within `reach` of `p` with a normal agreeing with
+    /// `normal` (cosine above `cos`). Triangles have edges of about a step, so their
+    /// centroids are within `reach` + a step of any point within `reach` of them.
+    fn covered(&self, mesh: &Mesh, p: DVec3, normal: DVec3, reach: f64, cos: f64) -> bool {
+        let [i, j, k] = self.key(p);
+        // A triangle within `reach` has its centroid within `reach` + its circumradius
+        // (about 0.7 of a step for the marcher's edges) of p.
+        let r = (reach / self.cell + 0.7).ceil() as i64;
+        for dk in -r..=r {
+            for dj in -r..=r {
+                for di in -r..=r {
+                    let Some(ts) = self.triangles.get(&[i + di, j + dj, k + dk]) else {
+                        continue;
+                    };
+                    for &t in ts {
+                        let [a, b, c] =
+                            mesh.triangles[t as usize].map(|v| mesh.vertices[v as usize]);
+                        let n = (b - a).cross(c - a).normalize_or_zero();
+                        if n.dot(normal) > cos
+                            && (closest_on_triangle(p, a, b, c) - p).length() < reach
+                        {
+                            return true;
+                        }
+                    }
+                }
+            }
+        }
+        false
+    }
+}
+
+/// The point of triangle abc closest to p (Ericson, *Real-Time Collision Detection* 5.1.5).
+fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 {
+        // Degenerate triangle: its first corner.
+        return a;
+    }
+    a + ab * (vb / denom) + ac * (vc / denom)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closest_point_in_each_region() {
+        let (a, b, c) = (DVec3::ZERO, DVec3::X, DVec3::Y);
+        let cases = [
+            (DVec3::new(0.2, 0.2, 1.0), DVec3::new(0.2, 0.2, 0.0)),
+            (DVec3::new(-1.0, -1.0, 0.0), a),
+            (DVec3::new(2.0, -0.5, 0.0), b),
+            (DVec3::new(-0.5, 2.0, 0.0), c),
+            (DVec3::new(0.5, -1.0, 0.0), DVec3::new(0.5, 0.0, 0.0)),
+            (DVec3::new(1.0, 1.0, 0.0), DVec3::new(0.5, 0.5, 0.0)),
+        ];
+        for (p, want) in cases {
+            let got = closest_on_triangle(p, a, b, c);
+            assert!((got - want).length() < 1e-12, "{p}: {got} ≠ {want}");
+        }
+    }
+
+    #[test]
+    fn cells_split_to_near_cubes() {
+        let cell = Cell {
+            lo: DVec3::ZERO,
+            hi: DVec3::new(4.0, 4.0, 1.0),
+        };
+        let kids = cell.split(0.1);
+        assert_eq!(kids.len(), 4, "the short side waits");
+        let total: f64 = kids.iter().map(|c| (c.hi - c.lo).element_product()).sum();
+        assert!((total - 16.0).abs() < 1e-12);
+    }
+}
