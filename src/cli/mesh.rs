@@ -80,6 +80,8 @@ struct MeshJson<'a> {
     step: f64,
     #[serde(flatten)]
     report: MeshReport,
+    max_chord_error: f64,
+    warnings: &'a [String],
     seconds: f64,
 }
 
@@ -93,6 +95,10 @@ pub struct Meshed {
     pub bbox: Option<(DVec3, DVec3)>,
     pub mesh: Mesh,
     pub report: MeshReport,
+    /// The largest distance from a triangle's centroid or edge midpoint to the surface.
+    pub max_chord_error: f64,
+    /// What the user should know about a mesh that is right (see `march::Marched`).
+    pub warnings: Vec<String>,
     pub seconds: f64,
 }
 
@@ -135,6 +141,8 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
                 surface: &m.surface,
                 step: m.step,
                 report: m.report.clone(),
+                max_chord_error: m.max_chord_error,
+                warnings: &m.warnings,
                 seconds: m.seconds,
             })
             .collect();
@@ -314,9 +322,12 @@ fn mesh_block(
         bounds,
         bbox: def.bbox,
         max_triangles: def.max_triangles,
+        tolerance: def.tolerance,
+        uniform: def.uniform,
     };
-    let mesh = march::march(&mut surface, &input, &MarchSettings::default())
+    let marched = march::march_verified(&mut surface, &input, &MarchSettings::default())
         .map_err(|e| messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(&e)))?;
+    let mesh = marched.mesh;
     let report = MeshReport::new(&mesh, &mut surface);
     Ok(Meshed {
         name: def.name.clone(),
@@ -325,6 +336,8 @@ fn mesh_block(
         bbox: def.bbox,
         mesh,
         report,
+        max_chord_error: marched.max_chord_error,
+        warnings: marched.warnings,
         seconds: started.elapsed().as_secs_f64(),
     })
 }
@@ -337,6 +350,9 @@ fn march_help(e: &MarchError) -> Option<&'static str> {
         }
         MarchError::Start { .. } | MarchError::StartOutsideBox { .. } => {
             "move `start` nearer the surface (and inside the `box`)"
+        }
+        MarchError::Unverified { .. } => {
+            "a smaller `step` or `tolerance` lets the local step resolve the feature there; `SURFC_TRACE=1` shows each refinement"
         }
         MarchError::NewPoint { .. } | MarchError::Stalled { .. } => {
             "a smaller `step` may get past small features or a singular point; a `box` can keep the mesh away from it"

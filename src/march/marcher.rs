@@ -20,6 +20,7 @@ use super::{MarchError, MarchInput, PolygonRole, Start};
 use crate::mesh::Mesh;
 use crate::solve::{SurfacePoint, surface_point, tangent_frame};
 use crate::surface::Surface;
+use crate::survey::sizing::{Size, Sizing};
 
 /// Splits and unions add no triangle but retire at least two nodes from distance checks, so
 /// their number is bounded; this guards against a bug turning that into a hang.
@@ -27,11 +28,25 @@ const MAX_STEPS_WITHOUT_TRIANGLE: u64 = 1_000_000;
 
 type HeapEntry = Reverse<(u64, u32, u32)>;
 
+/// A finished triangulation with what the verification needs to know of its points.
+pub(super) struct Triangulation {
+    pub mesh: Mesh,
+    /// Per vertex: a border point (on the box).
+    pub border: Vec<bool>,
+    /// Vertices below this index are polygon vertices (front and bounds).
+    pub fixed: usize,
+    /// Per vertex: the local step h it was made with.
+    pub h: Vec<f64>,
+    /// Where the surface asked for a step below the sizing's floor (the first such point).
+    pub floored: Option<DVec3>,
+}
+
 pub(super) fn run(
     surface: &mut dyn Surface,
     input: &MarchInput,
     settings: &MarchSettings,
-) -> Result<Mesh, MarchError> {
+    sizing: &Sizing,
+) -> Result<Triangulation, MarchError> {
     let step = input.step;
     if !(step.is_finite() && step > 0.0) {
         return Err(MarchError::InvalidStep { step });
@@ -46,6 +61,10 @@ pub(super) fn run(
         surface,
         s: *settings,
         step,
+        sizing,
+        h: Vec::new(),
+        size: Vec::new(),
+        floored: None,
         bbox: input.bbox,
         max_triangles: input.max_triangles.unwrap_or(settings.max_triangles),
         trace,
@@ -97,13 +116,19 @@ pub(super) fn run(
     m.passive.reverse();
     m.march(actual)?;
     m.repair();
-    Ok(m.into_mesh())
+    Ok(m.into_marched())
 }
 
 struct Marcher<'s> {
     surface: &'s mut dyn Surface,
     s: MarchSettings,
     step: f64,
+    sizing: &'s Sizing,
+    /// Per point: the local step h (≤ step), graded from its parent.
+    h: Vec<f64>,
+    /// Per point: what the sizing found there (inherited by the points made from it).
+    size: Vec<Size>,
+    floored: Option<DVec3>,
     bbox: Option<(DVec3, DVec3)>,
     max_triangles: u64,
     trace: bool,
@@ -143,8 +168,30 @@ impl Marcher<'_> {
         self.pos[self.rings.point(n).index()]
     }
 
-    fn add_point(&mut self, sp: SurfacePoint, border: bool) -> PointId {
+    /// A new point with its local step, graded from `parent` (the point it was stepped
+    /// from), if any.
+    fn add_point(&mut self, sp: SurfacePoint, border: bool, parent: Option<PointId>) -> PointId {
         let id = PointId(self.pos.len() as u32);
+        let from = parent.map(|q| {
+            let q = q.index();
+            (self.size[q], self.pos[q], self.normal[q])
+        });
+        let size = self
+            .sizing
+            .size(self.surface, &sp, from.as_ref().map(|(s, p, n)| (s, *p, *n)));
+        self.size.push(size);
+        if size.floored && self.floored.is_none() {
+            self.floored = Some(sp.point);
+        }
+        let h = match parent {
+            Some(q) => {
+                let q = q.index();
+                self.sizing
+                    .graded(size.h, self.h[q], self.pos[q].distance(sp.point))
+            }
+            None => size.h,
+        };
+        self.h.push(h);
         self.pos.push(sp.point);
         self.normal.push(sp.normal);
         self.t1.push(sp.t1);
@@ -251,12 +298,13 @@ impl Marcher<'_> {
         if !self.inside(sp.point) {
             return Err(MarchError::StartOutsideBox { at: sp.point });
         }
-        let c = self.add_point(sp, false);
+        let c = self.add_point(sp, false, None);
+        let hc = self.h[c.index()];
         let mut ring = Vec::with_capacity(6);
         for i in 0..6 {
             let w = i as f64 * std::f64::consts::FRAC_PI_3;
-            let q = sp.point + self.step * (w.cos() * sp.t1 + w.sin() * sp.t2);
-            ring.push(self.new_point(sp.point, q)?);
+            let q = sp.point + hc * (w.cos() * sp.t1 + w.sin() * sp.t2);
+            ring.push(self.new_point(c, q)?);
         }
         for i in 0..6 {
             self.add_triangle(c, ring[i], ring[(i + 1) % 6]);
@@ -340,6 +388,7 @@ impl Marcher<'_> {
                     t2,
                 },
                 false,
+                None,
             );
             seen.insert(key, id);
             ids.push(id);
@@ -354,22 +403,24 @@ impl Marcher<'_> {
         Ok(f)
     }
 
-    /// A new point for the start point of chord `from → q`: surfacepoint of q, or, if the
+    /// A new point for the chord from point `parent` to q: surfacepoint of q, or, if the
     /// chord or its surface point leaves the box, a border point where the chord meets it.
-    fn new_point(&mut self, from: DVec3, q: DVec3) -> Result<PointId, MarchError> {
+    fn new_point(&mut self, parent: PointId, q: DVec3) -> Result<PointId, MarchError> {
+        let from = self.pos[parent.index()];
         if !self.inside(q) {
-            return self.border_point(from, q);
+            return self.border_point(parent, from, q);
         }
         let sp = surface_point(self.surface, q, self.step, &self.s.surface_point)
             .map_err(|source| MarchError::NewPoint { near: q, source })?;
         if !self.inside(sp.point) {
-            return self.border_point(from, sp.point);
+            return self.border_point(parent, from, sp.point);
         }
         if let Some((lo, hi)) = self.bbox {
             // A point this close to a face would leave slivers between it and the border
             // points beyond it: it goes onto the face instead.
             let p = sp.point;
-            let (mut best, mut axis, mut value) = (self.s.box_snap * self.step, usize::MAX, 0.0);
+            let snap = self.s.box_snap * self.h[parent.index()];
+            let (mut best, mut axis, mut value) = (snap, usize::MAX, 0.0);
             for k in 0..3 {
                 for bound in [lo[k], hi[k]] {
                     let d = (p[k] - bound).abs();
@@ -381,16 +432,21 @@ impl Marcher<'_> {
             if axis != usize::MAX {
                 let mut u = p;
                 u[axis] = value;
-                return self.face_point(u, axis);
+                return self.face_point(parent, u, axis);
             }
         }
-        Ok(self.add_point(sp, false))
+        Ok(self.add_point(sp, false, Some(parent)))
     }
 
     /// The chord from → q (from inside, q outside the box) truncated at the box, then moved
     /// onto the surface within the box face it hit (Newton along the gradient projected into
     /// the face), so that border points lie on the box.
-    fn border_point(&mut self, from: DVec3, q: DVec3) -> Result<PointId, MarchError> {
+    fn border_point(
+        &mut self,
+        parent: PointId,
+        from: DVec3,
+        q: DVec3,
+    ) -> Result<PointId, MarchError> {
         // Without a box (never the case: callers check `inside` first) nothing truncates.
         let (lo, hi) = self
             .bbox
@@ -412,13 +468,18 @@ impl Marcher<'_> {
         }
         let mut u = from + t * d;
         u[axis] = value;
-        self.face_point(u, axis)
+        self.face_point(parent, u, axis)
     }
 
     /// A border point: from `start` on the box face orthogonal to `axis`, onto the surface
     /// within that face (falling back to plain surfacepoint where the surface runs along
     /// the face).
-    fn face_point(&mut self, start: DVec3, axis: usize) -> Result<PointId, MarchError> {
+    fn face_point(
+        &mut self,
+        parent: PointId,
+        start: DVec3,
+        axis: usize,
+    ) -> Result<PointId, MarchError> {
         let value = start[axis];
         let mut u = start;
         let tol = self.s.surface_point.relative_step * self.step;
@@ -464,7 +525,7 @@ impl Marcher<'_> {
         if self.trace {
             eprintln!("march: border point {} (face axis {axis})", sp.point);
         }
-        Ok(self.add_point(sp, true))
+        Ok(self.add_point(sp, true, Some(parent)))
     }
 
     /// Inside the box up to rounding of the face coordinate.
@@ -650,11 +711,16 @@ impl Marcher<'_> {
         let pa = self.pos[pa_id.index()];
         let (ap, an) = (self.rings.prev(a), self.rings.next(a));
         let (ap_id, an_id) = (self.rings.point(ap), self.rings.point(an));
-        let near = self.s.near_distance * self.step;
+        // Near within the larger of the two local steps: the one with the larger step would
+        // jump over the other's front with its next completion.
+        let ha = self.h[pa_id.index()];
+        let (near, h) = (self.s.near_distance, &self.h);
+        let rings = &self.rings;
         let mut cands = std::mem::take(&mut self.scratch);
         cands.clear();
         self.hash.for_near(pa, |b, pb| {
-            if pb.distance_squared(pa) < near * near {
+            let r = near * ha.max(h[rings.point(b).index()]);
+            if pb.distance_squared(pa) < r * r {
                 cands.push((b, pb));
             }
         });
@@ -695,12 +761,23 @@ impl Marcher<'_> {
                 continue;
             }
             let d = pa.distance(pb);
-            if best.is_none_or(|(bd, bb)| (d, b) < (bd, bb)) {
-                best = Some((d, b));
+            if best.is_some_and(|(bd, bb)| (d, b) >= (bd, bb)) || !self.same_sheet(pa, pb) {
+                continue;
             }
+            best = Some((d, b));
         }
         self.scratch = cands;
         best.map(|(_, b)| b)
+    }
+
+    /// Do two near front points see each other across the surface, not across a gap between
+    /// two sheets? The midpoint of their chord must lie within `near_midpoint`·|a − b| of
+    /// the surface (linear estimate |f|/|∇f|): on one sheet it is the chord's sagitta, across
+    /// a gap half the gap.
+    fn same_sheet(&mut self, pa: DVec3, pb: DVec3) -> bool {
+        let vg = self.surface.value_gradient(0.5 * (pa + pb));
+        let g = vg.gradient.length();
+        g > 0.0 && vg.value.abs() <= self.s.near_midpoint * pa.distance(pb) * g
     }
 
     /// Step 2, first case: a and b of the actual front are near. The shorter arc becomes a
@@ -811,6 +888,7 @@ impl Marcher<'_> {
         {
             return Ok(());
         }
+        let hm = self.h[pm_id.index()];
         let nt = if self.rings.len(self.rings.front(m)) <= 3 {
             1
         } else {
@@ -819,7 +897,7 @@ impl Marcher<'_> {
                 pm.distance(p1),
                 pm.distance(p2),
                 p1.distance(p2),
-                self.step,
+                hm,
                 &self.s,
             )
         };
@@ -836,8 +914,8 @@ impl Marcher<'_> {
             let dw = omega / nt as f64;
             for i in 1..nt {
                 let w = w1 + i as f64 * dw;
-                let q = pm + self.step * (w.cos() * t1 + w.sin() * t2);
-                new_points.push(self.new_point(pm, q)?);
+                let q = pm + hm * (w.cos() * t1 + w.sin() * t2);
+                new_points.push(self.new_point(pm_id, q)?);
             }
         }
         let mut prev = p1_id;
@@ -876,7 +954,7 @@ impl Marcher<'_> {
             || self.border[p1.index()]
             || self.border[p2.index()]
             || self.pos[p1.index()].distance(self.pos[p2.index()])
-                > self.s.close_neighbour * self.step
+                > self.s.close_neighbour * self.h[self.rings.point(m).index()]
         {
             return false;
         }
@@ -986,13 +1064,19 @@ impl Marcher<'_> {
     }
 
     /// The mesh, without the points merged away by `collapse` (renumbered in order, so
-    /// polygon vertices keep their places at the front).
-    fn into_mesh(self) -> Mesh {
+    /// polygon vertices keep their places at the front), with its per-vertex facts.
+    fn into_marched(self) -> Triangulation {
         if self.merged == 0 {
-            return Mesh {
-                vertices: self.pos,
-                normals: self.normal,
-                triangles: self.triangles,
+            return Triangulation {
+                mesh: Mesh {
+                    vertices: self.pos,
+                    normals: self.normal,
+                    triangles: self.triangles,
+                },
+                border: self.border,
+                fixed: self.fixed_points as usize,
+                h: self.h,
+                floored: self.floored,
             };
         }
         let mut used = vec![false; self.pos.len()];
@@ -1006,12 +1090,15 @@ impl Marcher<'_> {
             *u = true;
         }
         let mut map = vec![u32::MAX; self.pos.len()];
-        let (mut vertices, mut normals) = (Vec::new(), Vec::new());
+        let (mut vertices, mut normals, mut border, mut h) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (i, &u) in used.iter().enumerate() {
             if u {
                 map[i] = vertices.len() as u32;
                 vertices.push(self.pos[i]);
                 normals.push(self.normal[i]);
+                border.push(self.border[i]);
+                h.push(self.h[i]);
             }
         }
         let triangles = self
@@ -1019,10 +1106,16 @@ impl Marcher<'_> {
             .iter()
             .map(|t| t.map(|v| map[v as usize]))
             .collect();
-        Mesh {
-            vertices,
-            normals,
-            triangles,
+        Triangulation {
+            mesh: Mesh {
+                vertices,
+                normals,
+                triangles,
+            },
+            border,
+            fixed: self.fixed_points as usize,
+            h,
+            floored: self.floored,
         }
     }
 

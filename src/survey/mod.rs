@@ -3,3 +3,5 @@
 //! in a box (interval bounds, the component search), how small its features are (the local
 //! step), and where it is not smooth (creases). Each is a module of its own; the marcher takes
 //! their answers as inputs.
+
+pub mod sizing;
