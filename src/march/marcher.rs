@@ -26,6 +26,10 @@ use crate::survey::sizing::{Size, Sizing};
 /// their number is bounded; this guards against a bug turning that into a hang.
 const MAX_STEPS_WITHOUT_TRIANGLE: u64 = 1_000_000;
 
+/// How often a new point is made again nearer its parent when it landed where the local step
+/// is much finer (`graded_point`); each retry moves it to where its own step allows.
+const GRADING_RETRIES: u32 = 3;
+
 type HeapEntry = Reverse<(u64, u32, u32)>;
 
 /// A finished triangulation with what the verification needs to know of its points.
@@ -303,8 +307,7 @@ impl Marcher<'_> {
         let mut ring = Vec::with_capacity(6);
         for i in 0..6 {
             let w = i as f64 * std::f64::consts::FRAC_PI_3;
-            let q = sp.point + hc * (w.cos() * sp.t1 + w.sin() * sp.t2);
-            ring.push(self.new_point(c, q)?);
+            ring.push(self.graded_point(c, w.cos() * sp.t1 + w.sin() * sp.t2, hc)?);
         }
         for i in 0..6 {
             self.add_triangle(c, ring[i], ring[(i + 1) % 6]);
@@ -401,6 +404,38 @@ impl Marcher<'_> {
             self.update_angle(n);
         }
         Ok(f)
+    }
+
+    /// A new point `r` from `parent` along the tangent `dir` (Steps 0 and 3), nearer where
+    /// the point's own local step says that r jumped into a finer region than grading allows
+    /// (h(q) < (1 − grading)·r, e.g. onto a thin rim): then it is made again at
+    /// h(q)/(1 − grading), a few times.
+    fn graded_point(&mut self, parent: PointId, dir: DVec3, r: f64) -> Result<PointId, MarchError> {
+        let from = self.pos[parent.index()];
+        let keep = 1.0 - self.sizing.settings().grading;
+        let mut r = r;
+        for _ in 0..GRADING_RETRIES {
+            let id = self.new_point(parent, from + r * dir)?;
+            let hq = self.h[id.index()];
+            if self.border[id.index()] || hq >= keep * r || self.sizing.is_uniform() {
+                return Ok(id);
+            }
+            self.pop_point();
+            r = hq / keep;
+        }
+        self.new_point(parent, from + r * dir)
+    }
+
+    /// Undoes the last `add_point` (a point nothing refers to yet).
+    fn pop_point(&mut self) {
+        self.pos.pop();
+        self.normal.pop();
+        self.t1.pop();
+        self.t2.pop();
+        self.border.pop();
+        self.first_tri.pop();
+        self.h.pop();
+        self.size.pop();
     }
 
     /// A new point for the chord from point `parent` to q: surfacepoint of q, or, if the
@@ -719,7 +754,7 @@ impl Marcher<'_> {
         let mut cands = std::mem::take(&mut self.scratch);
         cands.clear();
         self.hash.for_near(pa, |b, pb| {
-            let r = near * ha.max(h[rings.point(b).index()]);
+            let r = near * ha.min(h[rings.point(b).index()]);
             if pb.distance_squared(pa) < r * r {
                 cands.push((b, pb));
             }
@@ -914,8 +949,7 @@ impl Marcher<'_> {
             let dw = omega / nt as f64;
             for i in 1..nt {
                 let w = w1 + i as f64 * dw;
-                let q = pm + hm * (w.cos() * t1 + w.sin() * t2);
-                new_points.push(self.new_point(pm_id, q)?);
+                new_points.push(self.graded_point(pm_id, w.cos() * t1 + w.sin() * t2, hm)?);
             }
         }
         let mut prev = p1_id;
