@@ -84,7 +84,7 @@ fn generated_shapes_are_meshed_right_or_refused() {
         let step = sh.feature * rng.log_range(0.25, 4.0);
         let mut s = sh.surface();
         let input = MarchInput {
-            max_triangles: Some(2_000_000),
+            max_triangles: Some(500_000),
             ..MarchInput::from_point(step, sh.start)
         };
         let tolerance = settings.tolerance * step;
