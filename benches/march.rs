@@ -71,7 +71,12 @@ fn case<S: Surface>(
     case_with(c, name, make, MarchInput::from_point(step, start));
 }
 
-fn case_with<S: Surface>(c: &mut Criterion, name: &str, mut make: impl FnMut() -> S, input: MarchInput) {
+fn case_with<S: Surface>(
+    c: &mut Criterion,
+    name: &str,
+    mut make: impl FnMut() -> S,
+    input: MarchInput,
+) {
     let settings = MarchSettings::default();
     // One timed run: triangle count and the evaluation share (the timer's own cost inflates
     // the share a little for cheap surfaces).

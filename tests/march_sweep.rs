@@ -34,16 +34,24 @@ impl Rng {
         (lo.ln() + (hi.ln() - lo.ln()) * self.next()).exp()
     }
     fn rotation(&mut self) -> DMat3 {
-        let axis = DVec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0))
-            .try_normalize()
-            .unwrap_or(DVec3::Z);
+        let axis = DVec3::new(
+            self.range(-1.0, 1.0),
+            self.range(-1.0, 1.0),
+            self.range(-1.0, 1.0),
+        )
+        .try_normalize()
+        .unwrap_or(DVec3::Z);
         DMat3::from_axis_angle(axis, self.range(0.0, std::f64::consts::TAU))
     }
 }
 
 fn shape(rng: &mut Rng, i: usize) -> Shape {
     match i % 4 {
-        0 => torus(rng.range(0.6, 1.2), rng.log_range(0.03, 0.3), rng.rotation()),
+        0 => torus(
+            rng.range(0.6, 1.2),
+            rng.log_range(0.03, 0.3),
+            rng.rotation(),
+        ),
         1 => dumbbell(rng.log_range(0.03, 0.2), rng.rotation()),
         2 => {
             let holes = 1 + (rng.next() * 3.0) as usize;

@@ -660,7 +660,10 @@ pub fn bad_tolerance(span: Span, value: f64) -> Diagnostic {
         "E0521",
         format!("`tolerance` must be a positive number, it is {value}"),
     )
-    .primary(span, "the largest distance between the mesh and the surface")
+    .primary(
+        span,
+        "the largest distance between the mesh and the surface",
+    )
     .help("leave it out for the default, a tenth of the step")
 }
 

@@ -180,9 +180,11 @@ impl Marcher<'_> {
             let q = q.index();
             (self.size[q], self.pos[q], self.normal[q])
         });
-        let size = self
-            .sizing
-            .size(self.surface, &sp, from.as_ref().map(|(s, p, n)| (s, *p, *n)));
+        let size = self.sizing.size(
+            self.surface,
+            &sp,
+            from.as_ref().map(|(s, p, n)| (s, *p, *n)),
+        );
         self.size.push(size);
         if size.floored && self.floored.is_none() {
             self.floored = Some(sp.point);

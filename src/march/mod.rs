@@ -214,13 +214,7 @@ pub fn march_verified(
     let mut round = 0;
     loop {
         let marched = marcher::run(surface, input, settings, &sizing)?;
-        let verdict = verify::verify(
-            surface,
-            &marched,
-            tolerance,
-            step,
-            &settings.surface_point,
-        );
+        let verdict = verify::verify(surface, &marched, tolerance, step, &settings.surface_point);
         // With the uniform step a coarse chord is the user's choice; with the local step it
         // is refined like a wrong mesh.
         let mut flaws = verdict.wrong.clone();

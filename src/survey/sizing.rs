@@ -183,7 +183,10 @@ impl Sizing {
         let caps = self.caps.bound(sp.point);
         let (free, rho) = match parent.and_then(|(ps, pp, pn)| self.inherited(sp, ps, pp, pn)) {
             Some(got) => got,
-            None => (self.thickness(surface, sp), self.curvature_radius(surface, sp)),
+            None => (
+                self.thickness(surface, sp),
+                self.curvature_radius(surface, sp),
+            ),
         };
         let h = self
             .step

@@ -127,7 +127,10 @@ pub fn plate(holes: usize, a: f64, b: f64, hole: f64, gap: f64, k: f64) -> Shape
     let n = 800;
     for i in 0..=n {
         for j in 0..=n {
-            let (x, y) = (-a + 2.0 * a * i as f64 / n as f64, -b + 2.0 * b * j as f64 / n as f64);
+            let (x, y) = (
+                -a + 2.0 * a * i as f64 / n as f64,
+                -b + 2.0 * b * j as f64 / n as f64,
+            );
             zmax = zmax.max((-k * d(x, y).0).max(0.0).sqrt());
         }
     }
