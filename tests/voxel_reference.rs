@@ -46,9 +46,7 @@ fn genus_two_plate_and_disjoint_balls() {
     assert_eq!((c.euler, c.components), (-1, 1));
     assert_eq!(c.surface_euler(), -2);
 
-    let two = |p: DVec3| {
-        ((p - DVec3::X).length() - 0.6).min((p + DVec3::X).length() - 0.6)
-    };
+    let two = |p: DVec3| ((p - DVec3::X).length() - 0.6).min((p + DVec3::X).length() - 0.6);
     let c = solid_count(two, lo, hi, 50);
     assert_eq!((c.euler, c.components), (2, 2));
 }

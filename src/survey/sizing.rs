@@ -72,7 +72,7 @@ impl Default for SizingSettings {
             probe_min: 1.0 / 64.0,
             probe_max: 0.25,
             inherit: 1.5,
-            grading: 0.5,
+            grading: 0.3,
             min_size: 1.0 / 256.0,
         }
     }
