@@ -319,7 +319,9 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
     let mut present: Vec<u32> = classes.clone();
     present.sort_unstable();
     present.dedup();
-    // The grid cells of class `c` a triangle's bounding box touches.
+    // The grid cells of class `c` a triangle's bounding box touches, as one packed key each
+    // (class in 7 bits, 19 bits a coordinate; far cells that wrap onto one key only add
+    // candidates, which the crossing test rejects).
     let cells = |t: &[u32; 3], c: u32| {
         let cell = base * 2f64.powi(c as i32);
         let ps = t.map(|k| vs[k as usize]);
@@ -328,28 +330,55 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
             key(ps[0].min(ps[1]).min(ps[2])),
             key(ps[0].max(ps[1]).max(ps[2])),
         );
+        const MASK: u64 = (1 << 19) - 1;
+        let pack = move |x: i64, y: i64, z: i64| {
+            ((c as u64) << 57)
+                | ((x as u64 & MASK) << 38)
+                | ((y as u64 & MASK) << 19)
+                | (z as u64 & MASK)
+        };
         (lo.x..=hi.x).flat_map(move |x| {
-            (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| (c, [x, y, z])))
+            (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| pack(x, y, z)))
         })
     };
-    let mut grid: std::collections::HashMap<(u32, [i64; 3]), Vec<u32>> = Default::default();
+    // The grid as one sorted list of (cell, triangle): no map, no per-cell allocation.
+    let mut grid: Vec<(u64, u32)> = Vec::with_capacity(8 * tris.len());
     for (i, t) in tris.iter().enumerate() {
-        for c in cells(t, classes[i]) {
-            grid.entry(c).or_default().push(i as u32);
-        }
+        grid.extend(cells(t, classes[i]).map(|k| (k, i as u32)));
     }
+    grid.sort_unstable();
+    let members = |k: u64| {
+        let from = grid.partition_point(|e| e.0 < k);
+        grid[from..]
+            .iter()
+            .take_while(move |e| e.0 == k)
+            .map(|e| e.1)
+    };
+    // Bounding boxes: most candidates from a shared cell do not even overlap.
+    let boxes: Vec<(DVec3, DVec3)> = tris
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|k| vs[k as usize]);
+            (a.min(b).min(c), a.max(b).max(c))
+        })
+        .collect();
     let mut seen = vec![u32::MAX; tris.len()];
     let mut out = Vec::new();
     for (i, t) in tris.iter().enumerate() {
+        let (lo, hi) = boxes[i];
         for &c in present.iter().filter(|&&c| c >= classes[i]) {
-            for list in cells(t, c).filter_map(|k| grid.get(&k)) {
-                for &j in list {
+            for k in cells(t, c) {
+                for j in members(k) {
                     let same = classes[j as usize] == classes[i];
                     if j as usize == i || (same && (j as usize) < i) || seen[j as usize] == i as u32
                     {
                         continue;
                     }
                     seen[j as usize] = i as u32;
+                    let (lj, hj) = boxes[j as usize];
+                    if lo.cmpgt(hj).any() || lj.cmpgt(hi).any() {
+                        continue;
+                    }
                     if triangles_cross(vs, *t, tris[j as usize]) {
                         out.push([(i as u32).min(j), (i as u32).max(j)]);
                     }
