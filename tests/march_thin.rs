@@ -121,7 +121,7 @@ fn genus3_chord_error_within_a_tenth_of_the_step() {
 #[ignore]
 fn sphere_local_step_cost() {
     let settings = MarchSettings::default();
-    let mut time = |uniform: bool| {
+    let time = |uniform: bool| {
         let mut s = sphere(2.0);
         let input = MarchInput {
             uniform,
