@@ -134,14 +134,15 @@ fn violations(file: &str, m: &Meshed) -> Vec<String> {
     lines
 }
 
-/// `source` with `uniform: true;` added to the mesh block `name`.
+/// `source` with `uniform: true;` added to the mesh block `name`, and a tolerance that admits
+/// the paper's chord errors (genus 3's tight rims are 0.16 off at its step 0.3).
 fn with_uniform_step(source: &str, name: &str) -> String {
     let at = source
         .find(&format!("mesh {name} ="))
         .unwrap_or_else(|| panic!("no mesh block {name}"));
     let brace = at + source[at..].find('{').expect("a mesh block has a `{`");
     format!(
-        "{} uniform: true;{}",
+        "{} uniform: true; tolerance: 0.3;{}",
         &source[..=brace],
         &source[brace + 1..]
     )

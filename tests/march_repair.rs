@@ -57,6 +57,7 @@ fn compare(name: &str, mut surface: Boxed, input: &MarchInput) {
     // differently.
     let input = &MarchInput {
         uniform: true,
+        tolerance: Some(0.6 * input.step),
         ..input.clone()
     };
     let off = MarchSettings {

@@ -352,7 +352,7 @@ fn march_help(e: &MarchError) -> Option<&'static str> {
             "move `start` nearer the surface (and inside the `box`)"
         }
         MarchError::Unverified { .. } => {
-            "a smaller `step` or `tolerance` lets the local step resolve the feature there; `SURFC_TRACE=1` shows each refinement"
+            "without `uniform: true` the local step refines there; else a smaller `step` (or, for a coarse but right mesh, a larger `tolerance`); `SURFC_TRACE=1` shows each refinement"
         }
         MarchError::NewPoint { .. } | MarchError::Stalled { .. } => {
             "a smaller `step` may get past small features or a singular point; a `box` can keep the mesh away from it"

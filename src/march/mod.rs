@@ -65,8 +65,8 @@ pub struct MarchInput {
     pub max_triangles: Option<u64>,
     /// The largest chord error allowed (model units); `None`: `MarchSettings::tolerance`·δ.
     pub tolerance: Option<f64>,
-    /// The paper's fixed step everywhere (no local step); a chord error above the tolerance
-    /// is then a warning, not a reason to refine.
+    /// The paper's fixed step everywhere (no local step, no refinement): a mesh that fails
+    /// its verification, a chord error above the tolerance included, is refused.
     pub uniform: bool,
 }
 
@@ -215,12 +215,11 @@ pub fn march_verified(
     loop {
         let marched = marcher::run(surface, input, settings, &sizing)?;
         let verdict = verify::verify(surface, &marched, tolerance, step, &settings.surface_point);
-        // With the uniform step a coarse chord is the user's choice; with the local step it
-        // is refined like a wrong mesh.
+        // A chord error above the tolerance may be a wrong mesh (a cap over a neck thinner
+        // than the step): refined like one, and with the uniform step (which cannot refine)
+        // refused; the paper's coarse meshes need a `tolerance` that admits them.
         let mut flaws = verdict.wrong.clone();
-        if !input.uniform {
-            flaws.extend(&verdict.coarse);
-        }
+        flaws.extend(&verdict.coarse);
         if flaws.is_empty() {
             let mut warnings = Vec::new();
             if let Some(at) = marched.floored {
@@ -228,14 +227,6 @@ pub fn march_verified(
                     "a feature near {at} is smaller than the local step's floor {:e} (step/{}): meshed at the floor",
                     sizing.floor(),
                     (1.0 / settings.sizing.min_size).round()
-                ));
-            }
-            if let Some(c) = verdict.coarse.first() {
-                warnings.push(format!(
-                    "chord error {:.3e} above the tolerance {tolerance:.3e} near {} ({} place(s)); drop `uniform` to refine there",
-                    verdict.max_chord_error,
-                    c.at,
-                    verdict.coarse.len()
                 ));
             }
             return Ok(Marched {
