@@ -17,7 +17,7 @@ use surfc::march::{MarchInput, MarchSettings, march};
 use surfc::sema::program::{SurfaceId, SurfaceRef};
 use surfc::surface::compiled::CompiledSurface;
 use surfc::surface::{NativeSurface, Surface, ValueGrad};
-use surfc::survey::components::{SearchSettings, mesh_components};
+use surfc::survey::components::{Marching, SearchSettings, mesh_components};
 
 fn sphere() -> impl Surface {
     NativeSurface(|p: DVec3| ValueGrad {
@@ -68,11 +68,19 @@ impl<S: Surface> Surface for Timed<S> {
 fn case<S: Surface>(
     c: &mut Criterion,
     name: &str,
-    mut make: impl FnMut() -> S,
+    make: impl FnMut() -> S,
     step: f64,
     start: DVec3,
 ) {
-    let input = MarchInput::from_point(step, start);
+    case_with(c, name, make, MarchInput::from_point(step, start));
+}
+
+fn case_with<S: Surface>(
+    c: &mut Criterion,
+    name: &str,
+    mut make: impl FnMut() -> S,
+    input: MarchInput,
+) {
     let settings = MarchSettings::default();
     // One timed run: triangle count and the evaluation share (the timer's own cost inflates
     // the share a little for cheap surfaces).
@@ -139,7 +147,7 @@ fn components(c: &mut Criterion, make: &dyn Fn() -> CompiledSurface) {
     input.bbox = Some(bbox);
     let from_box = || {
         let mut s = make();
-        mesh_components(&mut s, step, bbox, None, &settings, &search).map(|m| m.mesh)
+        mesh_components(&mut s, Marching::step(step), bbox, &settings, &search).map(|m| m.mesh)
     };
     let from_start = || {
         let mut s = make();
@@ -191,6 +199,17 @@ fn benches(c: &mut Criterion) {
     case(c, "sphere_0.3", sphere, 0.3, s);
     case(c, "sphere_0.03", sphere, 0.03, s);
     case(c, "sphere_0.01", sphere, 0.01, s);
+    // The local step against the paper's uniform step where it never binds (issue 10: the
+    // sizing's cost, ≤ 10 %).
+    case_with(
+        c,
+        "sphere_0.01_uniform",
+        sphere,
+        MarchInput {
+            uniform: true,
+            ..MarchInput::from_point(0.01, s)
+        },
+    );
     let g = DVec3::new(0.0, 3.0, 0.0);
     case(c, "genus3_0.3", genus3, 0.3, g);
     case(c, "genus3_0.05", genus3, 0.05, g);

@@ -45,7 +45,9 @@ fn six_peak_in_its_box() {
 #[test]
 fn three_cylinders_in_their_box() {
     let (lo, hi) = (DVec3::new(-7.0, -7.0, -7.0), DVec3::new(7.0, 7.0, 5.0));
-    let (input, mut expect) = boxed(0.5, DVec3::ZERO, lo, hi);
+    let (mut input, mut expect) = boxed(0.5, DVec3::ZERO, lo, hi);
+    input.uniform = true;
+    input.tolerance = Some(0.6 * 0.5);
     expect.components = Some(1);
     let mut s = three_cylinders(2287.5587);
     let m = mesh_and_check("three cylinders δ=0.5", &mut s, &input, expect);

@@ -23,6 +23,8 @@ fn input(step: f64, front: Vec<DVec3>, bounds: Vec<Vec<DVec3>>) -> MarchInput {
         bounds,
         bbox: None,
         max_triangles: None,
+        tolerance: None,
+        uniform: false,
     }
 }
 
@@ -101,7 +103,10 @@ fn sphere_with_six_holes() {
         polys.push(circle(a * axis, -axis, u, rc, n));
     }
     let mut s = sphere(r);
-    let inp = input(step, polys[0].clone(), polys[1..].to_vec());
+    let inp = MarchInput {
+        uniform: true,
+        ..input(step, polys[0].clone(), polys[1..].to_vec())
+    };
     let m = mesh_and_check(
         "sphere with six holes",
         &mut s,

@@ -8,7 +8,7 @@ use surfc::mesh::check::{Expect, check};
 use surfc::mesh::write::Format;
 
 const SOURCE: &str = "surface sphere = x^2 + y^2 + z^2 - 4;\n\
-                      mesh coarse = sphere { step: 1; start: (1, 1, 1); }\n";
+                      mesh coarse = sphere { step: 1; start: (1, 1, 1); uniform: true; }\n";
 
 fn coarse_obj() -> String {
     let meshed = mesh_source(SOURCE).expect("the coarse sphere meshes");

@@ -28,7 +28,7 @@ use crate::mesh::{Mesh, NamedMesh};
 use crate::sema::program::{MeshDef, Program, SurfaceRef};
 use crate::solve::surface_point_near;
 use crate::surface::compiled::CompiledSurface;
-use crate::survey::components::{self, SearchError, SearchSettings};
+use crate::survey::components::{self, Marching, SearchError, SearchSettings};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MeshFormat {
@@ -101,6 +101,7 @@ struct MeshJson<'a> {
     step: f64,
     #[serde(flatten)]
     report: MeshReport,
+    max_chord_error: f64,
     warnings: &'a [String],
     seconds: f64,
 }
@@ -120,8 +121,10 @@ pub struct Meshed {
     pub mesh: Mesh,
     /// Topology and quality of the triangles (the figures of `surfc mesh --json`).
     pub report: MeshReport,
-    /// What was not meshed and why, with its place (also printed on stderr): components
-    /// smaller than the step, regions where no seed converged.
+    /// The largest distance from a triangle's centroid or edge midpoint to the surface.
+    pub max_chord_error: f64,
+    /// What the user should know: components smaller than the step, regions where no seed
+    /// converged, features cut at the floor of the local step (also printed on stderr).
     pub warnings: Vec<String>,
     /// Wall-clock time to build and mesh the block, in seconds.
     pub seconds: f64,
@@ -204,6 +207,7 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
                 surface: &m.surface,
                 step: m.step,
                 report: m.report.clone(),
+                max_chord_error: m.max_chord_error,
                 warnings: &m.warnings,
                 seconds: m.seconds,
             })
@@ -424,11 +428,16 @@ fn mesh_block(
             Start::Point(sp.point)
         }
         (None, None, Some(bbox)) if bounds.is_empty() => {
+            let marching = Marching {
+                step: def.step,
+                max_triangles: def.max_triangles,
+                tolerance: def.tolerance,
+                uniform: def.uniform,
+            };
             let found = components::mesh_components(
                 &mut surface,
-                def.step,
+                marching,
                 bbox,
-                def.max_triangles,
                 &settings,
                 &SearchSettings::default(),
             )
@@ -439,12 +448,14 @@ fn mesh_block(
                 _ => messages::mesh_failed(&def.name, def.span, &e.to_string(), None),
             })?;
             warnings.extend(found.warnings.iter().map(ToString::to_string));
+            warnings.extend(found.march_warnings);
             return Ok(finish(
                 program,
                 source,
                 def,
                 &mut surface,
                 found.mesh,
+                found.max_chord_error,
                 warnings,
                 started,
             ));
@@ -465,15 +476,19 @@ fn mesh_block(
         bounds,
         bbox: def.bbox,
         max_triangles: def.max_triangles,
+        tolerance: def.tolerance,
+        uniform: def.uniform,
     };
-    let mesh = march::march_with_progress(&mut surface, &input, &settings, progress)
+    let marched = march::march_verified(&mut surface, &input, &settings, Some(progress))
         .map_err(|e| failed(&e))?;
+    warnings.extend(marched.warnings);
     Ok(finish(
         program,
         source,
         def,
         &mut surface,
-        mesh,
+        marched.mesh,
+        marched.max_chord_error,
         warnings,
         started,
     ))
@@ -483,12 +498,14 @@ fn mesh_block(
 const START_HELP: &str = "move `start` nearer the surface, or give the mesh a `box` and no `start` to mesh every component in it";
 
 /// The meshed block with its report.
+#[allow(clippy::too_many_arguments)]
 fn finish(
     program: &Program,
     source: &str,
     def: &MeshDef,
     surface: &mut CompiledSurface,
     mesh: Mesh,
+    max_chord_error: f64,
     warnings: Vec<String>,
     started: Instant,
 ) -> Meshed {
@@ -500,6 +517,7 @@ fn finish(
         bbox: def.bbox,
         mesh,
         report,
+        max_chord_error,
         warnings,
         seconds: started.elapsed().as_secs_f64(),
     }
@@ -513,6 +531,9 @@ fn march_help(e: &MarchError) -> Option<&'static str> {
         }
         MarchError::Start { .. } | MarchError::StartOutsideBox { .. } => {
             "move `start` nearer the surface (and inside the `box`)"
+        }
+        MarchError::Unverified { .. } => {
+            "without `uniform: true` the local step refines there; else a smaller `step` (or, for a coarse but right mesh, a larger `tolerance`); `SURFC_TRACE=1` shows each refinement"
         }
         MarchError::NewPoint { .. } | MarchError::Stalled { .. } => {
             "a smaller `step` may get past small features or a singular point; a `box` can keep the mesh away from it"

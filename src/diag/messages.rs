@@ -60,6 +60,8 @@ pub const CODES: &[(&str, &str)] = &[
     ("E0508", "a mesh option with a value of the wrong shape"),
     ("E0509", "meshes sharing a curve with different steps"),
     ("E0510", "a patch meshed directly"),
+    ("E0521", "a `tolerance` that is not a positive number"),
+    ("E0522", "a `uniform` that is not `true` or `false`"),
     ("E0601", "a mesh that could not be completed"),
     (
         "E0602",
@@ -560,7 +562,7 @@ pub fn bad_circle(span: Span, what: &str) -> Diagnostic {
 pub fn unknown_mesh_option(span: Span, name: &str, suggestion: Option<&str>) -> Diagnostic {
     let d = Diagnostic::error("E0501", format!("unknown mesh option `{name}`"))
         .primary(span, "not a mesh option")
-        .note("the options are `step`, `start`, `box`, `front`, `bounds` and `max_triangles`");
+        .note("the options are `step`, `start`, `box`, `front`, `bounds`, `max_triangles`, `tolerance` and `uniform`");
     match suggestion {
         Some(s) => d.help(format!("did you mean `{s}`?")),
         None => d,
@@ -651,6 +653,24 @@ pub fn patch_meshed(span: Span, name: &str) -> Diagnostic {
     Diagnostic::error("E0510", format!("patch `{name}` cannot be meshed directly"))
         .primary(span, "the marcher meshes implicit surfaces")
         .help(format!("mesh its implicitization: `dist({name})`"))
+}
+
+pub fn bad_tolerance(span: Span, value: f64) -> Diagnostic {
+    Diagnostic::error(
+        "E0521",
+        format!("`tolerance` must be a positive number, it is {value}"),
+    )
+    .primary(
+        span,
+        "the largest distance between the mesh and the surface",
+    )
+    .help("leave it out for the default, a tenth of the step")
+}
+
+pub fn bad_uniform(span: Span) -> Diagnostic {
+    Diagnostic::error("E0522", "`uniform` must be `true` or `false`")
+        .primary(span, "not `true` or `false`")
+        .help("`uniform: true;` meshes with the step everywhere, as the paper does")
 }
 
 // ---- warnings -----------------------------------------------------------------------------

@@ -20,19 +20,38 @@ use super::{MarchError, MarchInput, PolygonRole, Start};
 use crate::mesh::Mesh;
 use crate::solve::{SurfacePoint, surface_point, tangent_frame};
 use crate::surface::Surface;
+use crate::survey::sizing::{Size, Sizing};
 
 /// Splits and unions add no triangle but retire at least two nodes from distance checks, so
 /// their number is bounded; this guards against a bug turning that into a hang.
 const MAX_STEPS_WITHOUT_TRIANGLE: u64 = 1_000_000;
 
+/// How often a new point is made again nearer its parent when it landed where the local step
+/// is much finer (`graded_point`); each retry moves it to where its own step allows.
+const GRADING_RETRIES: u32 = 3;
+
 type HeapEntry = Reverse<(u64, u32, u32)>;
+
+/// A finished triangulation with what the verification needs to know of its points.
+pub(super) struct Triangulation {
+    pub mesh: Mesh,
+    /// Per vertex: a border point (on the box).
+    pub border: Vec<bool>,
+    /// Vertices below this index are polygon vertices (front and bounds).
+    pub fixed: usize,
+    /// Per vertex: the local step h it was made with.
+    pub h: Vec<f64>,
+    /// Where the surface asked for a step below the sizing's floor (the first such point).
+    pub floored: Option<DVec3>,
+}
 
 pub(super) fn run<'s>(
     surface: &'s mut dyn Surface,
     input: &MarchInput,
     settings: &MarchSettings,
+    sizing: &'s Sizing,
     progress: Option<&'s std::sync::atomic::AtomicU64>,
-) -> Result<Mesh, MarchError> {
+) -> Result<Triangulation, MarchError> {
     let step = input.step;
     if !(step.is_finite() && step > 0.0) {
         return Err(MarchError::InvalidStep { step });
@@ -47,6 +66,10 @@ pub(super) fn run<'s>(
         surface,
         s: *settings,
         step,
+        sizing,
+        h: Vec::new(),
+        size: Vec::new(),
+        floored: None,
         bbox: input.bbox,
         max_triangles: input.max_triangles.unwrap_or(settings.max_triangles),
         progress,
@@ -99,13 +122,19 @@ pub(super) fn run<'s>(
     m.passive.reverse();
     m.march(actual)?;
     m.repair();
-    Ok(m.into_mesh())
+    Ok(m.into_marched())
 }
 
 struct Marcher<'s> {
     surface: &'s mut dyn Surface,
     s: MarchSettings,
     step: f64,
+    sizing: &'s Sizing,
+    /// Per point: the local step h (≤ step), graded from its parent.
+    h: Vec<f64>,
+    /// Per point: what the sizing found there (inherited by the points made from it).
+    size: Vec<Size>,
+    floored: Option<DVec3>,
     bbox: Option<(DVec3, DVec3)>,
     max_triangles: u64,
     /// Where the triangle count goes for a progress bar, if anyone watches.
@@ -147,8 +176,32 @@ impl Marcher<'_> {
         self.pos[self.rings.point(n).index()]
     }
 
-    fn add_point(&mut self, sp: SurfacePoint, border: bool) -> PointId {
+    /// A new point with its local step, graded from `parent` (the point it was stepped
+    /// from), if any.
+    fn add_point(&mut self, sp: SurfacePoint, border: bool, parent: Option<PointId>) -> PointId {
         let id = PointId(self.pos.len() as u32);
+        let from = parent.map(|q| {
+            let q = q.index();
+            (self.size[q], self.pos[q], self.normal[q])
+        });
+        let size = self.sizing.size(
+            self.surface,
+            &sp,
+            from.as_ref().map(|(s, p, n)| (s, *p, *n)),
+        );
+        self.size.push(size);
+        if size.floored && self.floored.is_none() {
+            self.floored = Some(sp.point);
+        }
+        let h = match parent {
+            Some(q) => {
+                let q = q.index();
+                self.sizing
+                    .graded(size.h, self.h[q], self.pos[q].distance(sp.point))
+            }
+            None => size.h,
+        };
+        self.h.push(h);
         self.pos.push(sp.point);
         self.normal.push(sp.normal);
         self.t1.push(sp.t1);
@@ -255,12 +308,12 @@ impl Marcher<'_> {
         if !self.inside(sp.point) {
             return Err(MarchError::StartOutsideBox { at: sp.point });
         }
-        let c = self.add_point(sp, false);
+        let c = self.add_point(sp, false, None);
+        let hc = self.h[c.index()];
         let mut ring = Vec::with_capacity(6);
         for i in 0..6 {
             let w = i as f64 * std::f64::consts::FRAC_PI_3;
-            let q = sp.point + self.step * (w.cos() * sp.t1 + w.sin() * sp.t2);
-            ring.push(self.new_point(sp.point, q)?);
+            ring.push(self.graded_point(c, w.cos() * sp.t1 + w.sin() * sp.t2, hc)?);
         }
         for i in 0..6 {
             self.add_triangle(c, ring[i], ring[(i + 1) % 6]);
@@ -344,6 +397,7 @@ impl Marcher<'_> {
                     t2,
                 },
                 false,
+                None,
             );
             seen.insert(key, id);
             ids.push(id);
@@ -358,22 +412,56 @@ impl Marcher<'_> {
         Ok(f)
     }
 
-    /// A new point for the start point of chord `from → q`: surfacepoint of q, or, if the
+    /// A new point `r` from `parent` along the tangent `dir` (Steps 0 and 3), nearer where
+    /// the point's own local step says that r jumped into a finer region than grading allows
+    /// (h(q) < (1 − grading)·r, e.g. onto a thin rim): then it is made again at
+    /// h(q)/(1 − grading), a few times.
+    fn graded_point(&mut self, parent: PointId, dir: DVec3, r: f64) -> Result<PointId, MarchError> {
+        let from = self.pos[parent.index()];
+        let keep = 1.0 - self.sizing.settings().grading;
+        let mut r = r;
+        for _ in 0..GRADING_RETRIES {
+            let id = self.new_point(parent, from + r * dir)?;
+            let hq = self.h[id.index()];
+            if self.border[id.index()] || hq >= keep * r || self.sizing.is_uniform() {
+                return Ok(id);
+            }
+            self.pop_point();
+            r = hq / keep;
+        }
+        self.new_point(parent, from + r * dir)
+    }
+
+    /// Undoes the last `add_point` (a point nothing refers to yet).
+    fn pop_point(&mut self) {
+        self.pos.pop();
+        self.normal.pop();
+        self.t1.pop();
+        self.t2.pop();
+        self.border.pop();
+        self.first_tri.pop();
+        self.h.pop();
+        self.size.pop();
+    }
+
+    /// A new point for the chord from point `parent` to q: surfacepoint of q, or, if the
     /// chord or its surface point leaves the box, a border point where the chord meets it.
-    fn new_point(&mut self, from: DVec3, q: DVec3) -> Result<PointId, MarchError> {
+    fn new_point(&mut self, parent: PointId, q: DVec3) -> Result<PointId, MarchError> {
+        let from = self.pos[parent.index()];
         if !self.inside(q) {
-            return self.border_point(from, q);
+            return self.border_point(parent, from, q);
         }
         let sp = surface_point(self.surface, q, self.step, &self.s.surface_point)
             .map_err(|source| MarchError::NewPoint { near: q, source })?;
         if !self.inside(sp.point) {
-            return self.border_point(from, sp.point);
+            return self.border_point(parent, from, sp.point);
         }
         if let Some((lo, hi)) = self.bbox {
             // A point this close to a face would leave slivers between it and the border
             // points beyond it: it goes onto the face instead.
             let p = sp.point;
-            let (mut best, mut axis, mut value) = (self.s.box_snap * self.step, usize::MAX, 0.0);
+            let snap = self.s.box_snap * self.h[parent.index()];
+            let (mut best, mut axis, mut value) = (snap, usize::MAX, 0.0);
             for k in 0..3 {
                 for bound in [lo[k], hi[k]] {
                     let d = (p[k] - bound).abs();
@@ -385,16 +473,21 @@ impl Marcher<'_> {
             if axis != usize::MAX {
                 let mut u = p;
                 u[axis] = value;
-                return self.face_point(u, axis);
+                return self.face_point(parent, u, axis);
             }
         }
-        Ok(self.add_point(sp, false))
+        Ok(self.add_point(sp, false, Some(parent)))
     }
 
     /// The chord from → q (from inside, q outside the box) truncated at the box, then moved
     /// onto the surface within the box face it hit (Newton along the gradient projected into
     /// the face), so that border points lie on the box.
-    fn border_point(&mut self, from: DVec3, q: DVec3) -> Result<PointId, MarchError> {
+    fn border_point(
+        &mut self,
+        parent: PointId,
+        from: DVec3,
+        q: DVec3,
+    ) -> Result<PointId, MarchError> {
         // Without a box (never the case: callers check `inside` first) nothing truncates.
         let (lo, hi) = self
             .bbox
@@ -416,13 +509,18 @@ impl Marcher<'_> {
         }
         let mut u = from + t * d;
         u[axis] = value;
-        self.face_point(u, axis)
+        self.face_point(parent, u, axis)
     }
 
     /// A border point: from `start` on the box face orthogonal to `axis`, onto the surface
     /// within that face (falling back to plain surfacepoint where the surface runs along
     /// the face).
-    fn face_point(&mut self, start: DVec3, axis: usize) -> Result<PointId, MarchError> {
+    fn face_point(
+        &mut self,
+        parent: PointId,
+        start: DVec3,
+        axis: usize,
+    ) -> Result<PointId, MarchError> {
         let value = start[axis];
         let mut u = start;
         let tol = self.s.surface_point.relative_step * self.step;
@@ -468,7 +566,7 @@ impl Marcher<'_> {
         if self.trace {
             eprintln!("march: border point {} (face axis {axis})", sp.point);
         }
-        Ok(self.add_point(sp, true))
+        Ok(self.add_point(sp, true, Some(parent)))
     }
 
     /// Inside the box up to rounding of the face coordinate.
@@ -660,11 +758,16 @@ impl Marcher<'_> {
         let pa = self.pos[pa_id.index()];
         let (ap, an) = (self.rings.prev(a), self.rings.next(a));
         let (ap_id, an_id) = (self.rings.point(ap), self.rings.point(an));
-        let near = self.s.near_distance * self.step;
+        // Near within the larger of the two local steps: the one with the larger step would
+        // jump over the other's front with its next completion.
+        let ha = self.h[pa_id.index()];
+        let (near, h) = (self.s.near_distance, &self.h);
+        let rings = &self.rings;
         let mut cands = std::mem::take(&mut self.scratch);
         cands.clear();
         self.hash.for_near(pa, |b, pb| {
-            if pb.distance_squared(pa) < near * near {
+            let r = near * ha.min(h[rings.point(b).index()]);
+            if pb.distance_squared(pa) < r * r {
                 cands.push((b, pb));
             }
         });
@@ -705,12 +808,23 @@ impl Marcher<'_> {
                 continue;
             }
             let d = pa.distance(pb);
-            if best.is_none_or(|(bd, bb)| (d, b) < (bd, bb)) {
-                best = Some((d, b));
+            if best.is_some_and(|(bd, bb)| (d, b) >= (bd, bb)) || !self.same_sheet(pa, pb) {
+                continue;
             }
+            best = Some((d, b));
         }
         self.scratch = cands;
         best.map(|(_, b)| b)
+    }
+
+    /// Do two near front points see each other across the surface, not across a gap between
+    /// two sheets? The midpoint of their chord must lie within `near_midpoint`·|a − b| of
+    /// the surface (linear estimate |f|/|∇f|): on one sheet it is the chord's sagitta, across
+    /// a gap half the gap.
+    fn same_sheet(&mut self, pa: DVec3, pb: DVec3) -> bool {
+        let vg = self.surface.value_gradient(0.5 * (pa + pb));
+        let g = vg.gradient.length();
+        g > 0.0 && vg.value.abs() <= self.s.near_midpoint * pa.distance(pb) * g
     }
 
     /// Step 2, first case: a and b of the actual front are near. The shorter arc becomes a
@@ -821,6 +935,7 @@ impl Marcher<'_> {
         {
             return Ok(());
         }
+        let hm = self.h[pm_id.index()];
         let nt = if self.rings.len(self.rings.front(m)) <= 3 {
             1
         } else {
@@ -829,7 +944,7 @@ impl Marcher<'_> {
                 pm.distance(p1),
                 pm.distance(p2),
                 p1.distance(p2),
-                self.step,
+                hm,
                 &self.s,
             )
         };
@@ -846,8 +961,7 @@ impl Marcher<'_> {
             let dw = omega / nt as f64;
             for i in 1..nt {
                 let w = w1 + i as f64 * dw;
-                let q = pm + self.step * (w.cos() * t1 + w.sin() * t2);
-                new_points.push(self.new_point(pm, q)?);
+                new_points.push(self.graded_point(pm_id, w.cos() * t1 + w.sin() * t2, hm)?);
             }
         }
         let mut prev = p1_id;
@@ -886,7 +1000,7 @@ impl Marcher<'_> {
             || self.border[p1.index()]
             || self.border[p2.index()]
             || self.pos[p1.index()].distance(self.pos[p2.index()])
-                > self.s.close_neighbour * self.step
+                > self.s.close_neighbour * self.h[self.rings.point(m).index()]
         {
             return false;
         }
@@ -996,13 +1110,19 @@ impl Marcher<'_> {
     }
 
     /// The mesh, without the points merged away by `collapse` (renumbered in order, so
-    /// polygon vertices keep their places at the front).
-    fn into_mesh(self) -> Mesh {
+    /// polygon vertices keep their places at the front), with its per-vertex facts.
+    fn into_marched(self) -> Triangulation {
         if self.merged == 0 {
-            return Mesh {
-                vertices: self.pos,
-                normals: self.normal,
-                triangles: self.triangles,
+            return Triangulation {
+                mesh: Mesh {
+                    vertices: self.pos,
+                    normals: self.normal,
+                    triangles: self.triangles,
+                },
+                border: self.border,
+                fixed: self.fixed_points as usize,
+                h: self.h,
+                floored: self.floored,
             };
         }
         let mut used = vec![false; self.pos.len()];
@@ -1016,12 +1136,15 @@ impl Marcher<'_> {
             *u = true;
         }
         let mut map = vec![u32::MAX; self.pos.len()];
-        let (mut vertices, mut normals) = (Vec::new(), Vec::new());
+        let (mut vertices, mut normals, mut border, mut h) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (i, &u) in used.iter().enumerate() {
             if u {
                 map[i] = vertices.len() as u32;
                 vertices.push(self.pos[i]);
                 normals.push(self.normal[i]);
+                border.push(self.border[i]);
+                h.push(self.h[i]);
             }
         }
         let triangles = self
@@ -1029,10 +1152,16 @@ impl Marcher<'_> {
             .iter()
             .map(|t| t.map(|v| map[v as usize]))
             .collect();
-        Mesh {
-            vertices,
-            normals,
-            triangles,
+        Triangulation {
+            mesh: Mesh {
+                vertices,
+                normals,
+                triangles,
+            },
+            border,
+            fixed: self.fixed_points as usize,
+            h,
+            floored: self.floored,
         }
     }
 

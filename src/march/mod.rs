@@ -14,6 +14,12 @@
 //! After the march a repair pass (`improve`) flips edges of and moves free corners of
 //! triangles below `MarchSettings::improve_angle`, keeping the topology and polygon vertices.
 //!
+//! Edges follow a local step h(p) ≤ δ from the surface's curvature and thickness
+//! (`survey::sizing`) unless the input asks for the paper's uniform step. Every finished mesh
+//! is verified against the surface (`verify`); one that fails is re-marched with the local
+//! step capped near the failures, a bounded number of times, and then refused: a wrong mesh
+//! is never returned.
+//!
 //! `SURFC_TRACE=1` in the environment prints a step-by-step trace to stderr.
 
 pub mod angle;
@@ -22,6 +28,7 @@ mod improve;
 mod marcher;
 pub mod ring;
 pub mod settings;
+pub mod verify;
 
 use glam::DVec3;
 
@@ -31,6 +38,8 @@ pub use settings::MarchSettings;
 use crate::mesh::Mesh;
 use crate::solve::SurfacePointError;
 use crate::surface::Surface;
+use crate::survey::sizing::{Cap, Sizing};
+use verify::Flaw;
 
 /// Where the triangulation starts.
 #[derive(Clone, Debug, PartialEq)]
@@ -54,6 +63,11 @@ pub struct MarchInput {
     pub bbox: Option<(DVec3, DVec3)>,
     /// Overrides `MarchSettings::max_triangles`.
     pub max_triangles: Option<u64>,
+    /// The largest chord error allowed (model units); `None`: `MarchSettings::tolerance`·δ.
+    pub tolerance: Option<f64>,
+    /// The paper's fixed step everywhere (no local step, no refinement): a mesh that fails
+    /// its verification, a chord error above the tolerance included, is refused.
+    pub uniform: bool,
 }
 
 impl MarchInput {
@@ -65,8 +79,23 @@ impl MarchInput {
             bounds: Vec::new(),
             bbox: None,
             max_triangles: None,
+            tolerance: None,
+            uniform: false,
         }
     }
+}
+
+/// A verified triangulation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Marched {
+    pub mesh: Mesh,
+    /// The largest distance from a triangle's centroid or edge midpoint to the surface.
+    pub max_chord_error: f64,
+    /// What the user should know about a mesh that is right (a feature cut at the floor of
+    /// the local step, a chord error above the tolerance with `uniform`).
+    pub warnings: Vec<String>,
+    /// How many times the mesh was re-marched with a finer local step near failures.
+    pub refinements: u32,
 }
 
 /// Which input polygon an error refers to.
@@ -139,24 +168,99 @@ pub enum MarchError {
         "the front stopped making progress near {at} after {iterations} steps without a triangle"
     )]
     Stalled { at: DVec3, iterations: u64 },
+    #[error("the tolerance {tolerance} is not a positive finite number")]
+    InvalidTolerance { tolerance: f64 },
+    #[error(
+        "the mesh is not the surface near {at}: {flaw} ({count} place(s)), still after {rounds} refinement(s) of the local step"
+    )]
+    Unverified {
+        flaw: Flaw,
+        at: DVec3,
+        count: usize,
+        rounds: u32,
+    },
 }
 
-/// Triangulates `surface` as `input` says (paper Sect. 2).
+/// Triangulates `surface` as `input` says (paper Sect. 2), verified (see [`march_verified`]).
 pub fn march(
     surface: &mut dyn Surface,
     input: &MarchInput,
     settings: &MarchSettings,
 ) -> Result<Mesh, MarchError> {
-    marcher::run(surface, input, settings, None)
+    march_verified(surface, input, settings, None).map(|m| m.mesh)
 }
 
-/// [`march`], storing the number of triangles made so far into `progress` as it goes (for a
-/// progress bar on another thread; relaxed stores, one per triangle).
-pub fn march_with_progress(
+/// Triangulates `surface` with the local step, verifies the mesh against the surface, and
+/// re-marches with the local step capped near the flaws until it passes or
+/// `MarchSettings::refine_rounds` are spent; then the first flaw is the error.
+///
+/// `progress`, where given, receives the number of triangles made so far as the march goes
+/// (for a progress bar on another thread; relaxed stores, one per triangle).
+pub fn march_verified(
     surface: &mut dyn Surface,
     input: &MarchInput,
     settings: &MarchSettings,
-    progress: &std::sync::atomic::AtomicU64,
-) -> Result<Mesh, MarchError> {
-    marcher::run(surface, input, settings, Some(progress))
+    progress: Option<&std::sync::atomic::AtomicU64>,
+) -> Result<Marched, MarchError> {
+    let step = input.step;
+    if !(step.is_finite() && step > 0.0) {
+        return Err(MarchError::InvalidStep { step });
+    }
+    let tolerance = input.tolerance.unwrap_or(settings.tolerance * step);
+    if !(tolerance.is_finite() && tolerance > 0.0) {
+        return Err(MarchError::InvalidTolerance { tolerance });
+    }
+    let mut sizing = if input.uniform {
+        Sizing::uniform(step)
+    } else {
+        Sizing::new(step, tolerance, settings.sizing)
+    };
+    let mut round = 0;
+    loop {
+        let marched = marcher::run(surface, input, settings, &sizing, progress)?;
+        let verdict = verify::verify(surface, &marched, tolerance, step, &settings.surface_point);
+        // A chord error above the tolerance may be a wrong mesh (a cap over a neck thinner
+        // than the step): refined like one, and with the uniform step (which cannot refine)
+        // refused; the paper's coarse meshes need a `tolerance` that admits them.
+        let mut flaws = verdict.wrong.clone();
+        flaws.extend(&verdict.coarse);
+        if flaws.is_empty() {
+            let mut warnings = Vec::new();
+            if let Some(at) = marched.floored {
+                warnings.push(format!(
+                    "a feature near {at} is smaller than the local step's floor {:e} (step/{}): meshed at the floor",
+                    sizing.floor(),
+                    (1.0 / settings.sizing.min_size).round()
+                ));
+            }
+            return Ok(Marched {
+                mesh: marched.mesh,
+                max_chord_error: verdict.max_chord_error,
+                warnings,
+                refinements: round,
+            });
+        }
+        if input.uniform || round >= settings.refine_rounds {
+            let first = flaws[0];
+            return Err(MarchError::Unverified {
+                flaw: first.flaw,
+                at: first.at,
+                count: flaws.len(),
+                rounds: round,
+            });
+        }
+        if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
+            eprintln!(
+                "march: verification round {round}: {} flaw(s), first {} at {}; refining",
+                flaws.len(),
+                flaws[0].flaw,
+                flaws[0].at
+            );
+        }
+        sizing.add_caps(flaws.iter().map(|f| Cap {
+            at: f.at,
+            size: settings.refine_factor * f.h,
+        }));
+        round += 1;
+    }
 }

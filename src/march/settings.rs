@@ -3,6 +3,7 @@
 //! why each default was chosen.
 
 use crate::solve::tolerance::SurfacePointTolerance;
+use crate::survey::sizing::SizingSettings;
 
 /// Settings of `march::march`. `Default` gives the values the tests were run with.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -12,6 +13,12 @@ pub struct MarchSettings {
     /// within 0.1–0.2 δ before joining on the torus and genus 3 tests, leaving triangles of
     /// 5–12°; at 1.0 every test keeps its smallest angle above 15°.)
     pub near_distance: f64,
+    /// Step 2: near points must see each other across the surface: the midpoint of their
+    /// chord within `near_midpoint`·|a − b| of the surface (|f|/|∇f|). On one sheet that
+    /// distance is the chord's sagitta, d/8 · d/ρ (≤ 0.07 d where the local step follows the
+    /// curvature); across a gap between two sheets it is half the gap (≥ d/2 for pairs
+    /// straight across). Default 0.3.
+    pub near_midpoint: f64,
     /// Step 2: near points must have normals with n_a · n_b above this (cosine). Default 0.3:
     /// two sheets of a surface that pass close to each other with opposed normals are never
     /// joined.
@@ -57,6 +64,18 @@ pub struct MarchSettings {
     pub polygon_on_surface: f64,
     /// The surfacepoint tolerances (relative to δ).
     pub surface_point: SurfacePointTolerance,
+    /// The local step (`survey::sizing`), unless `MarchInput::uniform`.
+    pub sizing: SizingSettings,
+    /// The default `tolerance` (largest chord error) relative to the step. Default 0.1
+    /// (CGAL's distance criterion in the comparison; the paper's sphere and torus
+    /// meet it at their steps).
+    pub tolerance: f64,
+    /// A mesh that fails its verification is re-marched with the local step capped near the
+    /// failures, at most this many times, then refused. Default 4.
+    pub refine_rounds: u32,
+    /// A failure caps the local step near it at this fraction of the step its triangle was
+    /// made with. Default 0.5.
+    pub refine_factor: f64,
 }
 
 impl Default for MarchSettings {
@@ -78,6 +97,11 @@ impl Default for MarchSettings {
             polygon_edge_max: 2.5,
             polygon_on_surface: 1e-6,
             surface_point: SurfacePointTolerance::default(),
+            near_midpoint: 0.3,
+            sizing: SizingSettings::default(),
+            tolerance: 0.1,
+            refine_rounds: 4,
+            refine_factor: 0.5,
         }
     }
 }

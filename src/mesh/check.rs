@@ -283,54 +283,111 @@ fn triangles_cross(vs: &[DVec3], t: [u32; 3], u: [u32; 3]) -> bool {
             .any(|&(p, q)| segment_crosses(p, q, a, b, c))
 }
 
-/// Every pair of triangles (index pairs, smaller first, sorted) that cross, found over a
-/// uniform grid of cells the size of the longest edge.
+/// Every pair of triangles (index pairs, smaller first, sorted) that cross, found over uniform
+/// grids, one per power-of-two size class: a triangle sits in the grid whose cells are just
+/// wider than its longest edge (≤ 8 cells) and is compared with the triangles of its own and
+/// every coarser class, so a mesh whose edge lengths vary (a local step) costs no more than
+/// a uniform one.
 pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
     let vs = &mesh.vertices;
     let tris = &mesh.triangles;
-    let mut cell = 0.0f64;
-    for t in tris {
-        for k in 0..3 {
-            cell = cell.max(vs[t[k] as usize].distance(vs[t[(k + 1) % 3] as usize]));
-        }
-    }
-    if tris.is_empty() || !(cell > 0.0 && cell.is_finite()) {
+    let longest = |t: &[u32; 3]| {
+        (0..3)
+            .map(|k| vs[t[k] as usize].distance(vs[t[(k + 1) % 3] as usize]))
+            .fold(0.0f64, f64::max)
+    };
+    let sizes: Vec<f64> = tris.iter().map(longest).collect();
+    let largest = sizes.iter().copied().fold(0.0f64, f64::max);
+    if tris.is_empty() || !(largest > 0.0 && largest.is_finite()) {
         return Vec::new();
     }
-    // The grid cells a triangle's bounding box touches.
-    let cells = |t: &[u32; 3]| {
+    // Classes below largest·2⁻³⁰ share the finest grid (a few more candidates, no overflow).
+    let base = sizes
+        .iter()
+        .copied()
+        .filter(|&s| s > 0.0)
+        .fold(largest, f64::min)
+        .max(largest * 2f64.powi(-30));
+    let class = |s: f64| -> u32 {
+        if s <= base {
+            0
+        } else {
+            (s / base).log2().ceil() as u32
+        }
+    };
+    let classes: Vec<u32> = sizes.iter().map(|&s| class(s)).collect();
+    let mut present: Vec<u32> = classes.clone();
+    present.sort_unstable();
+    present.dedup();
+    // The grid cells of class `c` a triangle's bounding box touches, as one packed key each
+    // (class in 7 bits, 19 bits a coordinate; far cells that wrap onto one key only add
+    // candidates, which the crossing test rejects).
+    let cells = |t: &[u32; 3], c: u32| {
+        let cell = base * 2f64.powi(c as i32);
         let ps = t.map(|k| vs[k as usize]);
-        let key = |p: DVec3| (p / cell).floor().as_ivec3();
+        let key = |p: DVec3| (p / cell).floor().as_i64vec3();
         let (lo, hi) = (
             key(ps[0].min(ps[1]).min(ps[2])),
             key(ps[0].max(ps[1]).max(ps[2])),
         );
+        const MASK: u64 = (1 << 19) - 1;
+        let pack = move |x: i64, y: i64, z: i64| {
+            ((c as u64) << 57)
+                | ((x as u64 & MASK) << 38)
+                | ((y as u64 & MASK) << 19)
+                | (z as u64 & MASK)
+        };
         (lo.x..=hi.x).flat_map(move |x| {
-            (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| glam::IVec3::new(x, y, z)))
+            (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| pack(x, y, z)))
         })
     };
-    let mut grid: std::collections::HashMap<glam::IVec3, Vec<u32>> = Default::default();
+    // The grid as one sorted list of (cell, triangle): no map, no per-cell allocation.
+    let mut grid: Vec<(u64, u32)> = Vec::with_capacity(8 * tris.len());
     for (i, t) in tris.iter().enumerate() {
-        for c in cells(t) {
-            grid.entry(c).or_default().push(i as u32);
-        }
+        grid.extend(cells(t, classes[i]).map(|k| (k, i as u32)));
     }
+    grid.sort_unstable();
+    let members = |k: u64| {
+        let from = grid.partition_point(|e| e.0 < k);
+        grid[from..]
+            .iter()
+            .take_while(move |e| e.0 == k)
+            .map(|e| e.1)
+    };
+    // Bounding boxes: most candidates from a shared cell do not even overlap.
+    let boxes: Vec<(DVec3, DVec3)> = tris
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|k| vs[k as usize]);
+            (a.min(b).min(c), a.max(b).max(c))
+        })
+        .collect();
     let mut seen = vec![u32::MAX; tris.len()];
     let mut out = Vec::new();
     for (i, t) in tris.iter().enumerate() {
-        for list in cells(t).filter_map(|c| grid.get(&c)) {
-            for &j in list {
-                if j as usize <= i || seen[j as usize] == i as u32 {
-                    continue;
-                }
-                seen[j as usize] = i as u32;
-                if triangles_cross(vs, *t, tris[j as usize]) {
-                    out.push([i as u32, j]);
+        let (lo, hi) = boxes[i];
+        for &c in present.iter().filter(|&&c| c >= classes[i]) {
+            for k in cells(t, c) {
+                for j in members(k) {
+                    let same = classes[j as usize] == classes[i];
+                    if j as usize == i || (same && (j as usize) < i) || seen[j as usize] == i as u32
+                    {
+                        continue;
+                    }
+                    seen[j as usize] = i as u32;
+                    let (lj, hj) = boxes[j as usize];
+                    if lo.cmpgt(hj).any() || lj.cmpgt(hi).any() {
+                        continue;
+                    }
+                    if triangles_cross(vs, *t, tris[j as usize]) {
+                        out.push([(i as u32).min(j), (i as u32).max(j)]);
+                    }
                 }
             }
         }
     }
     out.sort_unstable();
+    out.dedup();
     out
 }
 

@@ -14,7 +14,16 @@ use super::expr::{Ctx, Place};
 use super::program::*;
 use super::{CURVE_CONSTRUCTORS, Checker, Kind};
 
-const MESH_OPTIONS: [&str; 6] = ["step", "start", "box", "front", "bounds", "max_triangles"];
+const MESH_OPTIONS: [&str; 8] = [
+    "step",
+    "start",
+    "box",
+    "front",
+    "bounds",
+    "max_triangles",
+    "tolerance",
+    "uniform",
+];
 
 const INTERSECTION_SIG: &str = "intersection(S1, S2, near: (x, y, z))";
 const CIRCLE_SIG: &str = "circle(center: (x, y, z), normal: (x, y, z), radius: r[, segments: n])";
@@ -652,6 +661,33 @@ impl<'f> Checker<'f> {
                 None => ok = false,
             }
         }
+        let mut tolerance = None;
+        if let Some(o) = seen.get("tolerance") {
+            match self.single_value(o, "a positive number") {
+                Some(e) => match self.number(e, "the tolerance") {
+                    Some(v) if v > 0.0 && v.is_finite() => tolerance = Some(v),
+                    Some(v) => {
+                        self.diags.push(messages::bad_tolerance(e.span, v));
+                        ok = false;
+                    }
+                    None => ok = false,
+                },
+                None => ok = false,
+            }
+        }
+        let mut uniform = false;
+        if let Some(o) = seen.get("uniform") {
+            match self.single_value(o, "`true` or `false`") {
+                Some(e) => match &e.kind {
+                    ast::ExprKind::Name(n) if n == "true" || n == "false" => uniform = n == "true",
+                    _ => {
+                        self.diags.push(messages::bad_uniform(e.span));
+                        ok = false;
+                    }
+                },
+                None => ok = false,
+            }
+        }
         // With a box alone every component inside is meshed (DESIGN.md §2). A misspelt
         // `start`, `front` or `box` is already reported as an unknown option.
         let begins = ["start", "front", "box"]
@@ -675,6 +711,8 @@ impl<'f> Checker<'f> {
             front,
             bounds,
             max_triangles,
+            tolerance,
+            uniform,
         })
     }
 }

@@ -130,6 +130,10 @@ pub struct MeshDef {
     pub bounds: Vec<CurveId>,
     /// Guard against runaway meshes; `None` means the mesher's default.
     pub max_triangles: Option<u64>,
+    /// The largest chord error (model units) > 0; `None` means the mesher's default.
+    pub tolerance: Option<f64>,
+    /// `uniform: true`: the paper's fixed step, no local step.
+    pub uniform: bool,
 }
 
 /// Where a surface is expected: a named surface, a patch (only inside `dist`), or an

@@ -144,6 +144,10 @@ pub struct Components {
     /// Marches that gave a sheet meshed already, dropped (a seed the coverage test missed).
     pub duplicates: usize,
     pub warnings: Vec<Warning>,
+    /// The largest chord error of the components' meshes.
+    pub max_chord_error: f64,
+    /// What the marches of the components said (see `march::Marched::warnings`).
+    pub march_warnings: Vec<String>,
 }
 
 /// An axis-aligned cell of the octree.
@@ -221,16 +225,39 @@ pub fn candidate_cells(
     (leaves, false)
 }
 
-/// Meshes every component of `surface` inside `lo .. hi` (the module documentation).
-/// `max_triangles` bounds the total, as `MarchInput::max_triangles` bounds one march.
+/// How each component is marched: the step, the limit on triangles (for the total, as it
+/// bounds one march), the tolerance and the uniform step of `MarchInput`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Marching {
+    pub step: f64,
+    pub max_triangles: Option<u64>,
+    pub tolerance: Option<f64>,
+    pub uniform: bool,
+}
+
+impl Marching {
+    /// The local step with the default tolerance and limit.
+    pub fn step(step: f64) -> Self {
+        Marching {
+            step,
+            max_triangles: None,
+            tolerance: None,
+            uniform: false,
+        }
+    }
+}
+
+/// Meshes every component of `surface` inside `lo .. hi` (the module documentation), each
+/// marched and verified as `marching` says.
 pub fn mesh_components(
     surface: &mut dyn Surface,
-    step: f64,
+    marching: Marching,
     (lo, hi): (DVec3, DVec3),
-    max_triangles: Option<u64>,
     march_settings: &MarchSettings,
     settings: &SearchSettings,
 ) -> Result<Components, SearchError> {
+    let step = marching.step;
+    let max_triangles = marching.max_triangles;
     if !(step.is_finite() && step > 0.0) {
         return Err(SearchError::InvalidStep { step });
     }
@@ -242,6 +269,7 @@ pub fn mesh_components(
     let mut search = Search {
         surface,
         step,
+        marching,
         bbox: (lo, hi),
         march_settings,
         settings,
@@ -290,6 +318,7 @@ pub fn mesh_components(
 struct Search<'a> {
     surface: &'a mut dyn Surface,
     step: f64,
+    marching: Marching,
     bbox: (DVec3, DVec3),
     march_settings: &'a MarchSettings,
     settings: &'a SearchSettings,
@@ -425,13 +454,17 @@ impl Search<'_> {
             bounds: Vec::new(),
             bbox: Some(self.bbox),
             max_triangles: Some(self.limit.max(1)),
+            tolerance: self.marching.tolerance,
+            uniform: self.marching.uniform,
         };
-        let mesh = march::march(self.surface, &input, self.march_settings).map_err(|source| {
-            SearchError::March {
+        let marched = march::march_verified(self.surface, &input, self.march_settings, None)
+            .map_err(|source| SearchError::March {
                 seed: sp.point,
                 source,
-            }
-        })?;
+            })?;
+        let mesh = marched.mesh;
+        self.out.max_chord_error = self.out.max_chord_error.max(marched.max_chord_error);
+        self.out.march_warnings.extend(marched.warnings);
         self.limit = self.limit.saturating_sub(mesh.triangles.len() as u64);
         if self.duplicates(&mesh) {
             // A sheet meshed already (its seed was missed as covered where the earlier mesh

@@ -5,3 +5,4 @@
 //! their answers as inputs.
 
 pub mod components;
+pub mod sizing;

@@ -5,6 +5,7 @@
 
 pub mod build;
 pub mod rng;
+pub mod thin;
 pub mod voxel;
 
 use glam::{DMat3, DVec3};
