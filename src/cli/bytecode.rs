@@ -21,7 +21,7 @@ pub fn run(args: BytecodeArgs, color: ColorMode) -> u8 {
     };
     let lowered = match compile::lower_surface(&loaded.program, &SurfaceRef::Surface(id)) {
         Ok(l) => l,
-        Err(e) => return report_compile_error(&e),
+        Err(e) => return report_compile_error(&e, &loaded, color),
     };
     super::print_stdout(&compile::listing(&loaded.program, &lowered))
 }

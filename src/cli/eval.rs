@@ -57,8 +57,18 @@ pub(crate) fn load_surface(
     Ok((loaded, id))
 }
 
-pub(crate) fn report_compile_error(e: &CompileError) -> u8 {
-    eprintln!("error: cannot compile the surface: {e}");
+/// Reports why a surface of `loaded` could not be compiled: a diagnostic with its span for a
+/// limit the user reached, else a message. `EXIT_INPUT`.
+pub(crate) fn report_compile_error(e: &CompileError, loaded: &Loaded, color: ColorMode) -> u8 {
+    match super::build::limit_diagnostic(e) {
+        Some(d) => crate::diag::emit_stderr(
+            &[d],
+            &loaded.path.display().to_string(),
+            &loaded.source,
+            super::load::stderr_color(color),
+        ),
+        None => eprintln!("error: cannot compile the surface: {e}"),
+    }
     EXIT_INPUT
 }
 
@@ -71,7 +81,7 @@ pub fn run(args: EvalArgs, color: ColorMode) -> u8 {
     let builder = super::build::Builder::new(&loaded.program, args.engine.into());
     let mut surface = match builder.surface(&SurfaceRef::Surface(id), 1.0) {
         Ok(s) => s,
-        Err(e) => return report_compile_error(&e),
+        Err(e) => return report_compile_error(&e, &loaded, color),
     };
     let p = DVec3::new(args.x, args.y, args.z);
     let vg = surface.value_gradient(p);

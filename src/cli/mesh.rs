@@ -9,7 +9,7 @@ use clap::ValueEnum;
 use glam::DVec3;
 use serde::Serialize;
 
-use super::build::{BuildError, Builder};
+use super::build::{self, BuildError, Builder};
 use super::load::{Loaded, load, stderr_color};
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
 use crate::diag::{self, Diagnostic, messages};
@@ -17,8 +17,8 @@ use crate::eval::Engine;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::quality::MeshReport;
 use crate::mesh::summary::{MeshSummary, Progress, format_summary};
-use crate::mesh::write::{Format, write_mesh_file};
-use crate::mesh::{Mesh, NamedMesh};
+use crate::mesh::write::{Format, target, write_mesh_file};
+use crate::mesh::{Mesh, NamedMesh, net};
 use crate::sema::program::{MeshDef, Program, SurfaceRef};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -80,6 +80,8 @@ struct MeshJson<'a> {
     step: f64,
     #[serde(flatten)]
     report: MeshReport,
+    /// Whether the mesh was flipped against its ∇f to agree with the net it joins.
+    flipped: bool,
     seconds: f64,
 }
 
@@ -93,6 +95,9 @@ pub struct Meshed {
     pub bbox: Option<(DVec3, DVec3)>,
     pub mesh: Mesh,
     pub report: MeshReport,
+    /// Whether the mesh is oriented against its ∇f, to agree with the meshes it shares a
+    /// polygon with (`mesh::net`).
+    pub flipped: bool,
     pub seconds: f64,
 }
 
@@ -113,15 +118,20 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
         Ok(s) => s,
         Err(code) => return code,
     };
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| format.default_output(&args.file));
+    // Before meshing, so that the user does not wait for a refusal (a FIFO is not opened).
+    if let Err(e) = target::check_output(&output, &args.file) {
+        eprintln!("error: {e}");
+        return EXIT_USAGE;
+    }
     let meshed = match mesh_blocks(&loaded, &selected, color, args.quiet, args.engine.into()) {
         Ok(m) => m,
         Err(code) => return code,
     };
 
-    let output = args
-        .output
-        .clone()
-        .unwrap_or_else(|| format.default_output(&args.file));
     if let Err(e) = write_mesh_file(&output, format, &named(&meshed)) {
         eprintln!("error: {e}");
         return EXIT_USAGE;
@@ -135,6 +145,7 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
                 surface: &m.surface,
                 step: m.step,
                 report: m.report.clone(),
+                flipped: m.flipped,
                 seconds: m.seconds,
             })
             .collect();
@@ -168,7 +179,7 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
 }
 
 /// The meshes as the writers and the renderer take them.
-pub(crate) fn named(meshed: &[Meshed]) -> Vec<NamedMesh<'_>> {
+pub fn named(meshed: &[Meshed]) -> Vec<NamedMesh<'_>> {
     meshed
         .iter()
         .map(|m| NamedMesh {
@@ -237,14 +248,25 @@ pub fn mesh_source_with(source: &str, engine: Engine) -> Result<Vec<Meshed>, Vec
     let (checked, diags) = super::load::analyse(source);
     match checked {
         Some((_, program)) if !diag::has_errors(&diags) => {
-            let blocks: Vec<&MeshDef> = program.meshes.iter().collect();
-            mesh_program(&program, source, &blocks, true, engine).map_err(|d| vec![d])
+            mesh_checked(&program, source, engine).map_err(|d| vec![d])
         }
         _ => Err(diags),
     }
 }
 
-/// Meshes the blocks in order, with a progress spinner on a terminal unless `quiet`.
+/// Meshes every block of a checked `program` (its `source` names anonymous surfaces): for
+/// callers that change the program first (the fuzzer caps `max_triangles`).
+pub fn mesh_checked(
+    program: &Program,
+    source: &str,
+    engine: Engine,
+) -> Result<Vec<Meshed>, Diagnostic> {
+    let blocks: Vec<&MeshDef> = program.meshes.iter().collect();
+    mesh_program(program, source, &blocks, true, engine)
+}
+
+/// Meshes the blocks in order, with a progress spinner on a terminal unless `quiet`, and
+/// orients the nets they form as one.
 fn mesh_program(
     program: &Program,
     source: &str,
@@ -253,7 +275,7 @@ fn mesh_program(
     engine: Engine,
 ) -> Result<Vec<Meshed>, Diagnostic> {
     let mut builder = Builder::new(program, engine);
-    blocks
+    let mut meshed = blocks
         .iter()
         .map(|def| {
             let progress = Progress::start(&def.name, quiet);
@@ -261,7 +283,13 @@ fn mesh_program(
             progress.finish();
             result
         })
-        .collect()
+        .collect::<Result<Vec<Meshed>, Diagnostic>>()?;
+    // The meshes go into one file: where they share a polygon, they are one net.
+    let flips = net::orient(&mut meshed.iter_mut().map(|m| &mut m.mesh).collect::<Vec<_>>());
+    for (m, flipped) in meshed.iter_mut().zip(flips) {
+        m.flipped = flipped;
+    }
+    Ok(meshed)
 }
 
 fn mesh_block(
@@ -274,7 +302,12 @@ fn mesh_block(
     let build_failed = |e: BuildError| {
         let curve = match &e {
             BuildError::Curve { curve, .. } => Some(program.curves[curve.index()].span),
-            BuildError::Compile(_) => None,
+            BuildError::Compile(c) => {
+                if let Some(d) = build::limit_diagnostic(c) {
+                    return d.secondary(def.span, "in this mesh block");
+                }
+                None
+            }
         };
         messages::mesh_build_failed(&def.name, def.span, &e, curve)
     };
@@ -325,6 +358,7 @@ fn mesh_block(
         bbox: def.bbox,
         mesh,
         report,
+        flipped: false,
         seconds: started.elapsed().as_secs_f64(),
     })
 }
@@ -333,7 +367,13 @@ fn mesh_block(
 fn march_help(e: &MarchError) -> Option<&'static str> {
     Some(match e {
         MarchError::TooManyTriangles { .. } => {
-            "raise `max_triangles`, or bound the mesh with a `box` or `bounds`: an unbounded surface, or a front or bound walked the wrong way (see `reverse`), never closes"
+            "raise `max_triangles` if the surface is this large at this step; else look where the front was last advanced: a smaller `step` there, or a `box` around the part to mesh"
+        }
+        MarchError::Unbounded { .. } => {
+            "add a `box` around the part to mesh (a closed surface this large needs one too); if a `front` or `bounds` polygon should close the mesh, it may be walked the wrong way (see `reverse`)"
+        }
+        MarchError::Overlapping { .. } => {
+            "two sheets of the surface come closer there than the step: use a smaller `step`, or a `box` that keeps the mesh away from that place"
         }
         MarchError::Start { .. } | MarchError::StartOutsideBox { .. } => {
             "move `start` nearer the surface (and inside the `box`)"

@@ -12,6 +12,7 @@ use std::collections::{BTreeMap, BinaryHeap};
 use glam::DVec3;
 
 use super::angle::{ccw, front_angle, polar, triangle_count};
+use super::guard::{self, Guard};
 use super::hash::SpatialHash;
 use super::improve;
 use super::ring::{FrontId, NodeId, PointId, Rings};
@@ -47,7 +48,13 @@ pub(super) fn run(
         s: *settings,
         step,
         bbox: input.bbox,
-        max_triangles: input.max_triangles.unwrap_or(settings.max_triangles),
+        guard: Guard::new(
+            step,
+            input.bbox,
+            input.max_triangles.unwrap_or_else(|| {
+                guard::default_limit(input.bbox, step, settings.max_triangles)
+            }),
+        ),
         trace,
         pos: Vec::new(),
         normal: Vec::new(),
@@ -105,7 +112,8 @@ struct Marcher<'s> {
     s: MarchSettings,
     step: f64,
     bbox: Option<(DVec3, DVec3)>,
-    max_triangles: u64,
+    /// The triangle limit and the watch for marches that cannot end.
+    guard: Guard,
     trace: bool,
     // Points (= mesh vertices).
     pos: Vec<DVec3>,
@@ -550,12 +558,7 @@ impl Marcher<'_> {
             }
             self.complete(m)?;
             idle = 0;
-            if self.triangles.len() as u64 > self.max_triangles {
-                return Err(MarchError::TooManyTriangles {
-                    limit: self.max_triangles,
-                    at: last_at,
-                });
-            }
+            self.guard.check(&self.pos, &self.triangles, last_at)?;
         }
     }
 

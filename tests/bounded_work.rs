@@ -1,0 +1,144 @@
+//! Inputs that used to make surfc work for minutes end in seconds with a diagnostic that says
+//! which limit was reached and where (DESIGN.md §2, docs/language.md "Limits"): an exponential
+//! chain of functions (E0603), `dist` nested too deep (E0604).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// Runs the binary; exit code, stderr and how long it took.
+fn surfc(args: &[&str], dir: &Path) -> (i32, String, Duration) {
+    let started = Instant::now();
+    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("surfc runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+        started.elapsed(),
+    )
+}
+
+fn scratch(name: &str, file: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("surfc-bounded-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join(file), text).unwrap();
+    dir
+}
+
+/// Generous: the limits are reached in milliseconds; a loaded machine gets slack.
+const QUICK: Duration = Duration::from_secs(2);
+
+/// `fn f1(t) = f0(f0(t)); fn f2(t) = f1(f1(t)); …` up to `levels`: 2^levels copies of f0.
+fn doubling_chain(levels: usize) -> String {
+    let mut s = String::from("fn f0(t) = sin(t) + t;\n");
+    for k in 1..=levels {
+        s.push_str(&format!("fn f{k}(t) = f{j}(f{j}(t));\n", j = k - 1));
+    }
+    s.push_str(&format!(
+        "surface s = f{levels}(x) + y^2 + z^2 - 1;\nmesh m = s {{ step: 0.5; start: (1, 0, 0); }}\n"
+    ));
+    s
+}
+
+#[test]
+fn an_exponential_function_chain_is_stopped_while_inlining() {
+    let dir = scratch("chain", "chain.surf", &doubling_chain(22));
+    for args in [
+        &["check", "chain.surf"][..],
+        &["eval", "chain.surf", "s", "1", "0", "0"],
+        &["bytecode", "chain.surf", "s"],
+        &["mesh", "chain.surf", "-q", "-o", "chain.obj"],
+    ] {
+        let (code, stderr, took) = surfc(args, &dir);
+        assert_eq!(code, 1, "{args:?}: {stderr}");
+        assert!(stderr.contains("error[E0603]"), "{args:?}: {stderr}");
+        // The chain is named, outermost first, and the size reached is given.
+        assert!(stderr.contains("`f22` → `f21` → `f20`"), "{stderr}");
+        assert!(stderr.contains("lowering stopped at 50001 operations"), "{stderr}");
+        // The label is on the outermost call, in the surface.
+        assert!(stderr.contains("surface s = f22(x)"), "{stderr}");
+        assert!(took < QUICK, "{args:?} took {took:?}");
+    }
+    assert!(!dir.join("chain.obj").exists());
+}
+
+#[test]
+fn a_short_function_chain_still_compiles() {
+    // 2^10 copies of f0: about 2000 operations, well below the limit.
+    let dir = scratch("short", "short.surf", &doubling_chain(10));
+    let (code, stderr, _) = surfc(&["eval", "short.surf", "s", "1", "0", "0"], &dir);
+    assert_eq!(code, 0, "{stderr}");
+}
+
+/// Surfaces s1 … s`levels`, each `dist` of the one before, less 0.1.
+fn dist_chain(levels: usize) -> String {
+    let mut s = String::from("surface s0 = x^2 + y^2 + z^2 - 1;\n");
+    for k in 1..=levels {
+        s.push_str(&format!("surface s{k} = dist(s{j}) - 0.1;\n", j = k - 1));
+    }
+    s.push_str(&format!(
+        "mesh m = s{levels} {{ step: 0.3; start: (2, 0, 0); }}\n"
+    ));
+    s
+}
+
+#[test]
+fn nested_dist_is_limited() {
+    let anonymous = "surface s = x^2 + y^2 + z^2 - 1;\n\
+                     surface d = dist(dist(dist(dist(s) - 0.1) - 0.1) - 0.1) - 0.1;\n\
+                     mesh m = d { step: 0.3; start: (1.4, 0, 0); }\n";
+    for (name, text, top, chain) in [
+        (
+            "anonymous",
+            anonymous.to_string(),
+            "d",
+            "level 4 of dist(…) → dist(…) → dist(…) → dist(s)",
+        ),
+        (
+            "four",
+            dist_chain(4),
+            "s4",
+            "level 4 of dist(s3) → dist(s2) → dist(s1) → dist(s0)",
+        ),
+        (
+            "two_hundred",
+            dist_chain(200),
+            "s200",
+            // `check` reports the first surface past the limit (s4), `eval` and `mesh` s200.
+            "level 4 of dist(s",
+        ),
+    ] {
+        let dir = scratch(name, "d.surf", &text);
+        for args in [
+            &["check", "d.surf"][..],
+            &["eval", "d.surf", top, "1", "0", "0"],
+            &["mesh", "d.surf", "-q", "-o", "d.obj"],
+        ] {
+            let (code, stderr, took) = surfc(args, &dir);
+            assert_eq!(code, 1, "{name} {args:?}: {stderr}");
+            assert!(stderr.contains("error[E0604]"), "{name}: {stderr}");
+            assert!(stderr.contains("nested more than 3 deep"), "{name}: {stderr}");
+            assert!(stderr.contains(chain), "{name}: {stderr}");
+            assert!(took < QUICK, "{name} {args:?} took {took:?}");
+        }
+    }
+}
+
+#[test]
+fn dist_three_deep_still_evaluates() {
+    let dir = scratch("three", "d.surf", &dist_chain(3));
+    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
+        .args(["eval", "d.surf", "s3", "2", "0", "0", "--json"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // |p| − 1 − 0.3 at |p| = 2: three offsets of the unit sphere's distance.
+    let value = json["value"].as_f64().unwrap();
+    assert!((value - 0.7).abs() < 1e-6, "{value}");
+}
