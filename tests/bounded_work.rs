@@ -58,7 +58,10 @@ fn an_exponential_function_chain_is_stopped_while_inlining() {
         assert!(stderr.contains("error[E0603]"), "{args:?}: {stderr}");
         // The chain is named, outermost first, and the size reached is given.
         assert!(stderr.contains("`f22` → `f21` → `f20`"), "{stderr}");
-        assert!(stderr.contains("lowering stopped at 50001 operations"), "{stderr}");
+        assert!(
+            stderr.contains("lowering stopped at 20001 operations"),
+            "{stderr}"
+        );
         // The label is on the outermost call, in the surface.
         assert!(stderr.contains("surface s = f22(x)"), "{stderr}");
         assert!(took < QUICK, "{args:?} took {took:?}");
@@ -121,7 +124,10 @@ fn nested_dist_is_limited() {
             let (code, stderr, took) = surfc(args, &dir);
             assert_eq!(code, 1, "{name} {args:?}: {stderr}");
             assert!(stderr.contains("error[E0604]"), "{name}: {stderr}");
-            assert!(stderr.contains("nested more than 3 deep"), "{name}: {stderr}");
+            assert!(
+                stderr.contains("nested more than 3 deep"),
+                "{name}: {stderr}"
+            );
             assert!(stderr.contains(chain), "{name}: {stderr}");
             assert!(took < QUICK, "{name} {args:?} took {took:?}");
         }
@@ -141,4 +147,65 @@ fn dist_three_deep_still_evaluates() {
     // |p| − 1 − 0.3 at |p| = 2: three offsets of the unit sphere's distance.
     let value = json["value"].as_f64().unwrap();
     assert!((value - 0.7).abs() < 1e-6, "{value}");
+}
+
+/// A mesh that can never close is stopped early with the reason that fits: an unbounded
+/// surface (a plane, a tube) versus a front overlapping itself (two spheres 0.2 apart at
+/// step 0.6: the step is too coarse there).
+#[test]
+fn a_march_that_cannot_end_says_why_within_two_seconds() {
+    let cases = [
+        (
+            "plane",
+            "surface p = z;\nmesh m = p { step: 0.1; start: (0, 0, 0); }\n",
+            "the surface is unbounded here, add a box",
+        ),
+        (
+            "tube",
+            "surface c = x^2 + y^2 - 1;\nmesh m = c { step: 0.1; start: (1, 0, 0); }\n",
+            "the surface is unbounded here, add a box",
+        ),
+        (
+            "spheres",
+            "surface s = min(sqrt((x - 1.1)^2 + y^2 + z^2) - 1, sqrt((x + 1.1)^2 + y^2 + z^2) - 1);\n\
+             mesh m = s { step: 0.6; start: (2.1, 0, 0); }\n",
+            "the front keeps overlapping itself near [",
+        ),
+    ];
+    for (name, text, reason) in cases {
+        let dir = scratch(name, "m.surf", text);
+        let (code, stderr, took) = surfc(&["mesh", "m.surf", "-q", "-o", "m.obj"], &dir);
+        assert_eq!(code, 1, "{name}: {stderr}");
+        assert!(stderr.contains("error[E0601]"), "{name}: {stderr}");
+        assert!(stderr.contains(reason), "{name}: {stderr}");
+        assert!(took < QUICK, "{name} took {took:?}");
+        assert!(!dir.join("m.obj").exists());
+    }
+}
+
+/// The same plane in a box meshes: the box bounds it, and the default limit (what the box
+/// holds) leaves room for it.
+#[test]
+fn a_plane_in_a_box_meshes() {
+    let text = "surface p = z;\n\
+                mesh m = p { step: 0.1; start: (0, 0, 0); box: (-2, -2, -1) .. (2, 2, 1); }\n";
+    let dir = scratch("boxed", "m.surf", text);
+    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
+        .args(["mesh", "m.surf", "-q", "--json", "-o", "m.obj"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let m = &json["meshes"][0];
+    // A 4 × 4 square at step 0.1: one boundary loop, a disc.
+    assert_eq!(m["boundary_loops"], 1);
+    assert_eq!(m["euler_characteristic"], 1);
+    let triangles = m["triangles"].as_u64().unwrap();
+    // Area 16 over equilateral triangles of side ≈ 0.1 (area ≈ 0.0043): about 3700.
+    assert!((2500..6000).contains(&triangles), "{triangles}");
 }

@@ -259,7 +259,12 @@ fn g2_set_is_oriented_as_one() {
         .as_array()
         .unwrap()
         .iter()
-        .map(|m| (m["name"].as_str().unwrap().to_string(), m["flipped"].as_bool().unwrap()))
+        .map(|m| {
+            (
+                m["name"].as_str().unwrap().to_string(),
+                m["flipped"].as_bool().unwrap(),
+            )
+        })
         .collect();
     let expected: BTreeMap<String, bool> = [
         ("cylinder", false),

@@ -59,7 +59,9 @@ fn every_code_has_a_fixture() {
     let missing: Vec<&str> = CODES
         .iter()
         .map(|(c, _)| *c)
-        .filter(|c| !seen.contains(c) && !["E0010", "E0099", "E0601", "E0602", "E0603", "E0604"].contains(c))
+        .filter(|c| {
+            !seen.contains(c) && !["E0010", "E0099", "E0601", "E0602", "E0603", "E0604"].contains(c)
+        })
         .collect();
     assert!(missing.is_empty(), "codes without a fixture: {missing:?}");
 }

@@ -71,7 +71,10 @@ fn a_read_only_file_is_not_replaced() {
         "{stderr}"
     );
     assert_eq!(fs::read_to_string(&out).unwrap(), "precious\n");
-    assert_eq!(fs::metadata(&out).unwrap().permissions().mode() & 0o777, 0o444);
+    assert_eq!(
+        fs::metadata(&out).unwrap().permissions().mode() & 0o777,
+        0o444
+    );
 }
 
 #[test]
@@ -104,7 +107,10 @@ fn a_fifo_is_written_in_place_and_read_by_a_reader() {
     let dir = scratch("fifo");
     fs::write(dir.join("ball.surf"), SPHERE).unwrap();
     let fifo = dir.join("pipe.obj");
-    let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo runs");
+    let made = Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .expect("mkfifo runs");
     assert!(made.success());
     let reader = {
         let fifo = fifo.clone();
@@ -127,5 +133,8 @@ fn a_regular_file_is_replaced_with_its_permissions() {
     let (code, stderr) = surfc(&["mesh", "ball.surf", "-q"], &dir);
     assert_eq!(code, 0, "{stderr}");
     assert!(is_obj_mesh(&fs::read(&out).unwrap()));
-    assert_eq!(fs::metadata(&out).unwrap().permissions().mode() & 0o777, 0o640);
+    assert_eq!(
+        fs::metadata(&out).unwrap().permissions().mode() & 0o777,
+        0o640
+    );
 }

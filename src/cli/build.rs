@@ -12,8 +12,8 @@ use crate::diag::{Diagnostic, messages};
 use crate::eval::Engine;
 use crate::sema::program::{CurveId, CurveKind, Program, SurfaceRef};
 use crate::solve::curve::{self, CurveError, Polygon};
-use crate::span::Span;
 use crate::solve::tolerance::{FootTolerance, PatchFootTolerance, SurfacePointTolerance};
+use crate::span::Span;
 use crate::surface::compiled::CompiledSurface;
 use crate::surface::{ImplicitDist, PatchDist, Surface};
 

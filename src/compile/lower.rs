@@ -22,9 +22,9 @@ pub const MAX_DEPTH: u32 = 1000;
 /// patch may have after its functions are inlined. Inlining can grow a program exponentially
 /// (`fn f1(t) = f0(f0(t)); fn f2(t) = f1(f1(t)); …`), so the size is checked as nodes are
 /// made and lowering stops as soon as it passes the limit. The largest surface of the gallery
-/// has a few hundred nodes; a tape of this size still compiles to machine code in well under a
+/// has a few hundred nodes; a tape of this size compiles to machine code in about a
 /// second and evaluates in tens of microseconds.
-pub const MAX_NODES: usize = 50_000;
+pub const MAX_NODES: usize = 20_000;
 
 /// What the expression being lowered is a function of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

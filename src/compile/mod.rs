@@ -233,7 +233,8 @@ pub fn compile_patch(program: &Program, id: PatchId) -> Result<CompiledPatch, Co
 pub fn listing(program: &Program, lowered: &Lowered) -> String {
     let mut s = lowered.tape.listing();
     for (k, (target, span)) in lowered.children.iter().enumerate() {
-        let what = target_name(program, target).unwrap_or_else(|| format!("the expression at bytes {}..{}", span.start, span.end));
+        let what = target_name(program, target)
+            .unwrap_or_else(|| format!("the expression at bytes {}..{}", span.start, span.end));
         s.push_str(&format!("; #{k} = dist({what})\n"));
     }
     s

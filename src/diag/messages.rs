@@ -602,7 +602,7 @@ pub fn non_positive_step(span: Span, value: f64) -> Diagnostic {
         "E0504",
         format!("`step` must be positive, it is {}", number(value)),
     )
-        .primary(span, "the step is the edge length of the triangles")
+    .primary(span, "the step is the edge length of the triangles")
 }
 
 pub fn bad_max_triangles(span: Span, value: f64) -> Diagnostic {
@@ -745,7 +745,14 @@ pub fn surface_too_large(span: Span, nodes: usize, limit: usize, chain: &[String
     let label = match chain {
         [] => "this expression".to_string(),
         [only] => format!("inlining `{only}` here"),
-        _ => format!("inlining {} here", chain.iter().map(|f| format!("`{f}`")).collect::<Vec<_>>().join(" → ")),
+        _ => format!(
+            "inlining {} here",
+            chain
+                .iter()
+                .map(|f| format!("`{f}`"))
+                .collect::<Vec<_>>()
+                .join(" → ")
+        ),
     };
     Diagnostic::error(
         "E0603",

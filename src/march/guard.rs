@@ -208,7 +208,10 @@ mod tests {
                 break;
             }
         }
-        assert!(matches!(found, Some(MarchError::Unbounded { .. })), "{found:?}");
+        assert!(
+            matches!(found, Some(MarchError::Unbounded { .. })),
+            "{found:?}"
+        );
         let boxed = Some((DVec3::splat(-1e6), DVec3::splat(1e6)));
         let mut guard = Guard::new(1.0, boxed, u64::MAX);
         assert!(guard.check(&points, &triangles, DVec3::ZERO).is_ok());
@@ -222,7 +225,10 @@ mod tests {
         let mut guard = Guard::new(1.0, None, u64::MAX);
         assert!(matches!(
             guard.check(&points, &triangles, DVec3::ZERO),
-            Err(MarchError::Overlapping { triangles: 5000, .. })
+            Err(MarchError::Overlapping {
+                triangles: 5000,
+                ..
+            })
         ));
     }
 }

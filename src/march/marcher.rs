@@ -51,9 +51,9 @@ pub(super) fn run(
         guard: Guard::new(
             step,
             input.bbox,
-            input.max_triangles.unwrap_or_else(|| {
-                guard::default_limit(input.bbox, step, settings.max_triangles)
-            }),
+            input
+                .max_triangles
+                .unwrap_or_else(|| guard::default_limit(input.bbox, step, settings.max_triangles)),
         ),
         trace,
         pos: Vec::new(),

@@ -130,7 +130,10 @@ mod tests {
         std::os::unix::fs::symlink("real.obj", dir.join("one")).unwrap();
         std::os::unix::fs::symlink(dir.join("one"), dir.join("two")).unwrap();
         // A dangling chain ends at the file it would create.
-        assert_eq!(resolve(&dir.join("two")).unwrap(), Target::Replace(file.clone()));
+        assert_eq!(
+            resolve(&dir.join("two")).unwrap(),
+            Target::Replace(file.clone())
+        );
         fs::write(&file, "old").unwrap();
         assert_eq!(resolve(&dir.join("two")).unwrap(), Target::Replace(file));
         std::os::unix::fs::symlink("loop", dir.join("loop")).unwrap();
@@ -144,9 +147,6 @@ mod tests {
             Target::Direct("/dev/null".into())
         );
         let dir = scratch("dir");
-        assert!(matches!(
-            resolve(&dir),
-            Err(WriteError::IsDirectory { .. })
-        ));
+        assert!(matches!(resolve(&dir), Err(WriteError::IsDirectory { .. })));
     }
 }
