@@ -29,8 +29,16 @@ pub fn resolve(path: &Path) -> Result<Target, WriteError> {
     for _ in 0..MAX_LINKS {
         let meta = match fs::symlink_metadata(&current) {
             Ok(m) => m,
-            // A new file (possibly the missing target of a dangling link).
-            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Target::Replace(current)),
+            // A new file (possibly the missing target of a dangling link), or one under a
+            // missing directory, which the writer reports as such.
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::NotFound | io::ErrorKind::NotADirectory
+                ) =>
+            {
+                return Ok(Target::Replace(current));
+            }
             Err(source) => {
                 return Err(WriteError::Write {
                     path: path.to_path_buf(),
