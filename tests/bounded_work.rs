@@ -3,28 +3,19 @@
 //! chain of functions (E0603), `dist` nested too deep (E0604).
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-/// Runs the binary; exit code, stderr and how long it took.
+mod common;
+
+/// Runs `surfc ARGS` in `dir`: exit code, stderr and how long it took.
 fn surfc(args: &[&str], dir: &Path) -> (i32, String, Duration) {
-    let started = Instant::now();
-    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("surfc runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-        started.elapsed(),
-    )
+    let run = common::cli::surfc(args, dir);
+    (run.code, run.stderr, run.took)
 }
 
+/// A scratch directory holding `file` with `text`.
 fn scratch(name: &str, file: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("surfc-bounded-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::cli::scratch(&format!("bounded-{name}"));
     std::fs::write(dir.join(file), text).unwrap();
     dir
 }
@@ -137,13 +128,9 @@ fn nested_dist_is_limited() {
 #[test]
 fn dist_three_deep_still_evaluates() {
     let dir = scratch("three", "d.surf", &dist_chain(3));
-    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
-        .args(["eval", "d.surf", "s3", "2", "0", "0", "--json"])
-        .current_dir(&dir)
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let run = common::cli::surfc(&["eval", "d.surf", "s3", "2", "0", "0", "--json"], &dir);
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
     // |p| − 1 − 0.3 at |p| = 2: three offsets of the unit sphere's distance.
     let value = json["value"].as_f64().unwrap();
     assert!((value - 0.7).abs() < 1e-6, "{value}");
@@ -190,17 +177,9 @@ fn a_plane_in_a_box_meshes() {
     let text = "surface p = z;\n\
                 mesh m = p { step: 0.1; start: (0, 0, 0); box: (-2, -2, -1) .. (2, 2, 1); }\n";
     let dir = scratch("boxed", "m.surf", text);
-    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
-        .args(["mesh", "m.surf", "-q", "--json", "-o", "m.obj"])
-        .current_dir(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let run = common::cli::surfc(&["mesh", "m.surf", "-q", "--json", "-o", "m.obj"], &dir);
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
     let m = &json["meshes"][0];
     // A 4 × 4 square at step 0.1: one boundary loop, a disc.
     assert_eq!(m["boundary_loops"], 1);

@@ -6,26 +6,17 @@
 
 use std::fs;
 use std::os::unix::fs::{FileTypeExt, PermissionsExt};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-fn surfc(args: &[&str], dir: &Path) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("surfc runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("surfc-out-{name}-{}", std::process::id()));
-    let _ = fs::remove_dir_all(&dir);
-    fs::create_dir_all(&dir).unwrap();
-    dir
+use common::cli::scratch;
+
+/// Runs `surfc ARGS` in `dir`: exit code and stderr.
+fn surfc(args: &[&str], dir: &Path) -> (i32, String) {
+    let run = common::cli::surfc(args, dir);
+    (run.code, run.stderr)
 }
 
 const SPHERE: &str = "surface sphere = x^2 + y^2 + z^2 - 4;\n\
@@ -39,7 +30,7 @@ fn is_obj_mesh(bytes: &[u8]) -> bool {
 
 #[test]
 fn the_input_file_is_never_the_output() {
-    let dir = scratch("input");
+    let dir = scratch("out-input");
     fs::write(dir.join("ball.surf"), SPHERE).unwrap();
     // By name, through another spelling of the path, and through a hard link.
     fs::hard_link(dir.join("ball.surf"), dir.join("hard.obj")).unwrap();
@@ -59,7 +50,7 @@ fn the_input_file_is_never_the_output() {
 
 #[test]
 fn a_read_only_file_is_not_replaced() {
-    let dir = scratch("readonly");
+    let dir = scratch("out-readonly");
     fs::write(dir.join("ball.surf"), SPHERE).unwrap();
     let out = dir.join("keep.obj");
     fs::write(&out, "precious\n").unwrap();
@@ -79,7 +70,7 @@ fn a_read_only_file_is_not_replaced() {
 
 #[test]
 fn a_symlink_stays_a_link_and_its_target_gets_the_mesh() {
-    let dir = scratch("symlink");
+    let dir = scratch("out-symlink");
     fs::write(dir.join("ball.surf"), SPHERE).unwrap();
     fs::create_dir_all(dir.join("store")).unwrap();
     fs::write(dir.join("store/real.obj"), "old\n").unwrap();
@@ -104,7 +95,7 @@ fn a_symlink_stays_a_link_and_its_target_gets_the_mesh() {
 
 #[test]
 fn a_fifo_is_written_in_place_and_read_by_a_reader() {
-    let dir = scratch("fifo");
+    let dir = scratch("out-fifo");
     fs::write(dir.join("ball.surf"), SPHERE).unwrap();
     let fifo = dir.join("pipe.obj");
     let made = Command::new("mkfifo")
@@ -125,7 +116,7 @@ fn a_fifo_is_written_in_place_and_read_by_a_reader() {
 
 #[test]
 fn a_regular_file_is_replaced_with_its_permissions() {
-    let dir = scratch("regular");
+    let dir = scratch("out-regular");
     fs::write(dir.join("ball.surf"), SPHERE).unwrap();
     let out = dir.join("ball.obj");
     fs::write(&out, "old\n").unwrap();

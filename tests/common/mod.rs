@@ -3,6 +3,7 @@
 //! which runs the marcher, applies the one reusable checker and prints the quality line.
 #![allow(dead_code)]
 
+pub mod cli;
 pub mod voxel;
 
 use glam::{DMat3, DVec3};
