@@ -218,3 +218,62 @@ fn six_holes_keep_their_circles_exactly() {
     }
     assert_eq!(found, expected);
 }
+
+/// The G2 set written to one OBJ is oriented as one surface: every edge is in one or two
+/// triangles, and every edge in two is used once in each direction — across the curves the
+/// pieces share too, where the closure (whose ∇f points into the cylinder) is flipped.
+#[test]
+fn g2_set_is_oriented_as_one() {
+    let objects = mesh_to_obj("g2_set");
+    let mut directed: BTreeMap<Edge, usize> = BTreeMap::new();
+    for t in objects.values().flatten() {
+        for k in 0..3 {
+            *directed.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+        }
+    }
+    let mut checked = 0;
+    for (&(a, b), &n) in &directed {
+        let back = directed.get(&(b, a)).copied().unwrap_or(0);
+        assert!(n + back <= 2, "edge {a}-{b} in {} triangles", n + back);
+        if n + back == 2 {
+            assert_eq!((n, back), (1, 1), "edge {a}-{b} used twice the same way");
+            checked += 1;
+        }
+    }
+    assert!(checked > 1000, "{checked} interior edge directions");
+
+    // The report says which mesh was flipped: the closure, against its own ∇f.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("surfc-net-json-{}.obj", std::process::id()));
+    let run = Command::new(env!("CARGO_BIN_EXE_surfc"))
+        .arg("mesh")
+        .arg(root.join("examples/g2_set.surf"))
+        .args(["-q", "--json", "-o"])
+        .arg(&out)
+        .output()
+        .expect("surfc runs");
+    assert!(run.status.success());
+    let _ = std::fs::remove_file(&out);
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).expect("JSON");
+    let flipped: BTreeMap<String, bool> = json["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| {
+            (
+                m["name"].as_str().unwrap().to_string(),
+                m["flipped"].as_bool().unwrap(),
+            )
+        })
+        .collect();
+    let expected: BTreeMap<String, bool> = [
+        ("cylinder", false),
+        ("roof", false),
+        ("blend", false),
+        ("closure", true),
+    ]
+    .into_iter()
+    .map(|(n, f)| (n.to_string(), f))
+    .collect();
+    assert_eq!(flipped, expected);
+}

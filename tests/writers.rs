@@ -607,11 +607,11 @@ fn a_missing_or_unusable_directory_is_an_error_naming_the_path() {
         assert_eq!(error.path(), path);
         assert!(error.to_string().contains(&path.display().to_string()));
     }
-    // A directory in the way: renaming onto it fails, and no temporary file stays behind.
+    // A directory in the way is refused before anything is written: no temporary file.
     let in_the_way = dir.path().join("taken.obj");
     fs::create_dir(&in_the_way).expect("created");
     let error = write_mesh_file(&in_the_way, Format::Obj, &meshes).expect_err("cannot replace");
-    assert!(matches!(error, WriteError::Replace { .. }), "{error}");
+    assert!(matches!(error, WriteError::IsDirectory { .. }), "{error}");
     assert!(error.to_string().contains("taken.obj"));
     assert_eq!(fs::read_dir(dir.path()).expect("listable").count(), 2);
 }

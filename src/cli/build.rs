@@ -8,10 +8,12 @@ use std::collections::BTreeMap;
 use glam::DVec3;
 
 use crate::compile::{self, CompileError};
+use crate::diag::{Diagnostic, messages};
 use crate::eval::Engine;
 use crate::sema::program::{CurveId, CurveKind, Program, SurfaceRef};
 use crate::solve::curve::{self, CurveError, Polygon};
 use crate::solve::tolerance::{FootTolerance, PatchFootTolerance, SurfacePointTolerance};
+use crate::span::Span;
 use crate::surface::compiled::CompiledSurface;
 use crate::surface::{ImplicitDist, PatchDist, Surface};
 
@@ -52,15 +54,26 @@ impl<'p> Builder<'p> {
     }
 
     /// The oracle of a surface: its compiled tape, `dist(S)` children as foot-point distance
-    /// surfaces over S's own compiled tape (or patch), built recursively. `scale` (the mesh
-    /// step) is the length the foot-point tolerances are relative to.
+    /// surfaces over S's own compiled tape (or patch), built recursively, at most
+    /// `MAX_DIST_DEPTH` deep. `scale` (the mesh step) is the length the foot-point tolerances
+    /// are relative to.
     pub(crate) fn surface(
         &self,
         r: &SurfaceRef,
         scale: f64,
     ) -> Result<CompiledSurface, CompileError> {
+        self.surface_in(r, scale, &mut Vec::new())
+    }
+
+    /// [`Builder::surface`] inside the `dist`s that `outer` names (outermost first).
+    fn surface_in(
+        &self,
+        r: &SurfaceRef,
+        scale: f64,
+        outer: &mut Vec<String>,
+    ) -> Result<CompiledSurface, CompileError> {
         let mut surface = compile::compile_surface(self.program, r, &mut |target| {
-            self.dist_child(target, scale)
+            self.dist_child(target, scale, outer)
         })?;
         surface.set_engine(self.engine);
         Ok(surface)
@@ -70,12 +83,14 @@ impl<'p> Builder<'p> {
         &self,
         target: &SurfaceRef,
         scale: f64,
+        outer: &mut Vec<String>,
     ) -> Result<Box<dyn Surface>, CompileError> {
+        compile::enter_dist(self.program, target, outer)?;
         let foot = FootTolerance {
             scale,
             ..FootTolerance::default()
         };
-        Ok(match target {
+        let child: Box<dyn Surface> = match target {
             SurfaceRef::Patch(id) => Box::new(PatchDist::with_tolerance(
                 Box::new(compile::compile_patch(self.program, *id)?),
                 PatchFootTolerance {
@@ -84,10 +99,12 @@ impl<'p> Builder<'p> {
                 },
             )),
             other => Box::new(ImplicitDist::with_tolerance(
-                Box::new(self.surface(other, scale)?),
+                Box::new(self.surface_in(other, scale, outer)?),
                 foot,
             )),
-        })
+        };
+        outer.pop();
+        Ok(child)
     }
 
     /// The polygon of curve `id` sampled at `step` (clipped by `bbox` where the curve is
@@ -175,5 +192,43 @@ impl<'p> Builder<'p> {
             CurveKind::Reverse(inner) => self.is_circle(*inner),
             _ => false,
         }
+    }
+}
+
+/// The error a compile failure comes down to, through the `dist` children it was wrapped in,
+/// with the span of the innermost `dist` call that led there (if any).
+pub(crate) fn innermost(e: &CompileError) -> (&CompileError, Option<Span>) {
+    let mut at = None;
+    let mut e = e;
+    while let CompileError::Child { span, source } = e {
+        match source.downcast_ref::<CompileError>() {
+            Some(inner) => {
+                at = Some(*span);
+                e = inner;
+            }
+            None => break,
+        }
+    }
+    (e, at)
+}
+
+/// The diagnostic of a compile error that is the user's (a limit of DESIGN.md §2 reached),
+/// pointing at the call or `dist` at fault; None for errors that only a hand-built program
+/// can cause.
+pub(crate) fn limit_diagnostic(e: &CompileError) -> Option<Diagnostic> {
+    match innermost(e) {
+        (
+            CompileError::TooLarge {
+                nodes,
+                limit,
+                chain,
+                span,
+            },
+            _,
+        ) => Some(messages::surface_too_large(*span, *nodes, *limit, chain)),
+        (CompileError::DistTooDeep { limit, chain }, Some(span)) => {
+            Some(messages::dist_too_deep(span, *limit, chain))
+        }
+        _ => None,
     }
 }

@@ -21,7 +21,7 @@ pub fn run(args: BytecodeArgs, color: ColorMode) -> u8 {
     };
     let lowered = match compile::lower_surface(&loaded.program, &SurfaceRef::Surface(id)) {
         Ok(l) => l,
-        Err(e) => return compile_failure(&e).exit,
+        Err(e) => return compile_failure(&e, &loaded, color).exit,
     };
     super::print_stdout(&compile::listing(&loaded.program, &lowered))
 }

@@ -1,9 +1,14 @@
-//! `surfc check FILE...`: parse and check every file; diagnostics on stderr. Exit 0 if no file
-//! has an error, 2 if a file could not be read, else 1.
+//! `surfc check FILE...`: parse and check every file, and check that its surfaces stay within
+//! the compiler's limits; diagnostics on stderr. Exit 0 if no file has an error, 2 if a file
+//! could not be read, else 1.
 
 use std::path::PathBuf;
 
-use super::ColorMode;
+use super::load::{Loaded, stderr_color};
+use super::{ColorMode, EXIT_INPUT};
+use crate::compile;
+use crate::diag;
+use crate::sema::program::{SurfaceId, SurfaceRef};
 
 #[derive(clap::Args, Debug)]
 pub struct CheckArgs {
@@ -15,9 +20,37 @@ pub struct CheckArgs {
 pub fn run(args: CheckArgs, color: ColorMode) -> u8 {
     let mut worst = 0;
     for path in &args.files {
-        if let Err(code) = super::load::load(path, color) {
-            worst = worst.max(code);
-        }
+        let code = match super::load::load(path, color) {
+            Ok(loaded) => check_limits(&loaded, color),
+            Err(code) => code,
+        };
+        worst = worst.max(code);
     }
     worst
+}
+
+/// The compiler's limits (docs/language.md "Limits"), checked for every surface and mesh
+/// block without compiling to machine code: the first surface past one is reported (the
+/// surfaces built on it would repeat the same diagnostic). 0, or `EXIT_INPUT`.
+fn check_limits(loaded: &Loaded, color: ColorMode) -> u8 {
+    let program = &loaded.program;
+    let surfaces = (0..program.surfaces.len()).map(|k| SurfaceRef::Surface(SurfaceId(k as u32)));
+    let meshed = program.meshes.iter().map(|m| m.surface.clone());
+    for r in surfaces.chain(meshed) {
+        if matches!(r, SurfaceRef::Patch(_)) {
+            continue;
+        }
+        if let Err(e) = compile::check_limits(program, &r, &mut Vec::new()) {
+            if let Some(d) = super::build::limit_diagnostic(&e) {
+                diag::emit_stderr(
+                    &[d],
+                    &loaded.path.display().to_string(),
+                    &loaded.source,
+                    stderr_color(color),
+                );
+                return EXIT_INPUT;
+            }
+        }
+    }
+    0
 }

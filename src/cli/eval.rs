@@ -58,14 +58,23 @@ pub(crate) fn load_surface(
     Ok((loaded, id))
 }
 
-/// A surface that could not be compiled (exit 1).
-pub(crate) fn compile_failure(e: &CompileError) -> Failure {
-    Failure::new(
-        EXIT_INPUT,
-        CODE_INPUT,
-        format!("cannot compile the surface: {e}"),
-        None,
-    )
+/// Why a surface of `loaded` could not be compiled (exit 1): a diagnostic with its span for a
+/// limit the user reached, else a message.
+pub(crate) fn compile_failure(e: &CompileError, loaded: &Loaded, color: ColorMode) -> Failure {
+    match super::build::limit_diagnostic(e) {
+        Some(d) => Failure::diagnostics(
+            &[d],
+            &super::load::input_name(&loaded.path),
+            &loaded.source,
+            super::load::stderr_color(color),
+        ),
+        None => Failure::new(
+            EXIT_INPUT,
+            CODE_INPUT,
+            format!("cannot compile the surface: {e}"),
+            None,
+        ),
+    }
 }
 
 pub fn run(args: EvalArgs, color: ColorMode) -> u8 {
@@ -77,7 +86,7 @@ pub fn run(args: EvalArgs, color: ColorMode) -> u8 {
     let builder = super::build::Builder::new(&loaded.program, args.engine.into());
     let mut surface = match builder.surface(&SurfaceRef::Surface(id), 1.0) {
         Ok(s) => s,
-        Err(e) => return compile_failure(&e).finish(args.json),
+        Err(e) => return compile_failure(&e, &loaded, color).finish(args.json),
     };
     let p = DVec3::new(args.x, args.y, args.z);
     let vg = surface.value_gradient(p);

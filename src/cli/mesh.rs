@@ -12,7 +12,7 @@ use clap::ValueEnum;
 use glam::DVec3;
 use serde::Serialize;
 
-use super::build::{BuildError, Builder};
+use super::build::{self, BuildError, Builder};
 use super::load::{Loaded, input_name, is_stdin, load_reported, stderr_color};
 use super::report::{CODE_INPUT, CODE_IO, CODE_USAGE, Failure};
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
@@ -23,8 +23,8 @@ use crate::mesh::quality::MeshReport;
 use crate::mesh::summary::{
     MeshSummary, Progress, estimate_triangles, format_stats, format_summary,
 };
-use crate::mesh::write::{Format, write_mesh_file};
-use crate::mesh::{Mesh, NamedMesh};
+use crate::mesh::write::{Format, target, write_mesh_file};
+use crate::mesh::{Mesh, NamedMesh, net};
 use crate::sema::program::{MeshDef, Program, SurfaceRef};
 use crate::solve::surface_point_near;
 use crate::surface::compiled::CompiledSurface;
@@ -103,6 +103,8 @@ struct MeshJson<'a> {
     report: MeshReport,
     max_chord_error: f64,
     warnings: &'a [String],
+    /// Whether the mesh was flipped against its ∇f to agree with the net it joins.
+    flipped: bool,
     seconds: f64,
 }
 
@@ -126,6 +128,9 @@ pub struct Meshed {
     /// What the user should know: components smaller than the step, regions where no seed
     /// converged, features cut at the floor of the local step (also printed on stderr).
     pub warnings: Vec<String>,
+    /// Whether the mesh is oriented against its ∇f, to agree with the meshes it shares a
+    /// polygon with (`mesh::net`).
+    pub flipped: bool,
     /// Wall-clock time to build and mesh the block, in seconds.
     pub seconds: f64,
 }
@@ -184,6 +189,10 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
     let (output, format) = choose_output(&args)?;
     let loaded = load_reported(&args.file, color)?;
     let selected = select(&loaded, &args.only)?;
+    // Before meshing, so that the user does not wait for a refusal (a FIFO is not opened).
+    if let Output::File(path) = &output {
+        target::check_output(path, &args.file).map_err(|e| Failure::io(e.to_string(), path))?;
+    }
     let meshed = mesh_blocks(&loaded, &selected, color, args.quiet, args.engine.into())?;
     for m in &meshed {
         for w in &m.warnings {
@@ -209,6 +218,7 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
                 report: m.report.clone(),
                 max_chord_error: m.max_chord_error,
                 warnings: &m.warnings,
+                flipped: m.flipped,
                 seconds: m.seconds,
             })
             .collect();
@@ -277,7 +287,7 @@ fn write_stdout(format: Format, meshes: &[NamedMesh]) -> Result<(), Failure> {
 }
 
 /// The meshes as the writers and the renderer take them.
-pub(crate) fn named(meshed: &[Meshed]) -> Vec<NamedMesh<'_>> {
+pub fn named(meshed: &[Meshed]) -> Vec<NamedMesh<'_>> {
     meshed
         .iter()
         .map(|m| NamedMesh {
@@ -352,14 +362,25 @@ pub fn mesh_source_with(source: &str, engine: Engine) -> Result<Vec<Meshed>, Vec
     let (checked, diags) = super::load::analyse(source);
     match checked {
         Some((_, program)) if !diag::has_errors(&diags) => {
-            let blocks: Vec<&MeshDef> = program.meshes.iter().collect();
-            mesh_program(&program, source, &blocks, true, engine).map_err(|d| vec![d])
+            mesh_checked(&program, source, engine).map_err(|d| vec![d])
         }
         _ => Err(diags),
     }
 }
 
-/// Meshes the blocks in order, with a progress bar on a terminal unless `quiet`.
+/// Meshes every block of a checked `program` (its `source` names anonymous surfaces): for
+/// callers that change the program first (the fuzzer caps `max_triangles`).
+pub fn mesh_checked(
+    program: &Program,
+    source: &str,
+    engine: Engine,
+) -> Result<Vec<Meshed>, Diagnostic> {
+    let blocks: Vec<&MeshDef> = program.meshes.iter().collect();
+    mesh_program(program, source, &blocks, true, engine)
+}
+
+/// Meshes the blocks in order, with a progress bar on a terminal unless `quiet`, and
+/// orients the nets they form as one.
 fn mesh_program(
     program: &Program,
     source: &str,
@@ -368,7 +389,7 @@ fn mesh_program(
     engine: Engine,
 ) -> Result<Vec<Meshed>, Diagnostic> {
     let mut builder = Builder::new(program, engine);
-    blocks
+    let mut meshed = blocks
         .iter()
         .map(|def| {
             let estimate = def
@@ -379,7 +400,13 @@ fn mesh_program(
             progress.finish();
             result
         })
-        .collect()
+        .collect::<Result<Vec<Meshed>, Diagnostic>>()?;
+    // The meshes go into one file: where they share a polygon, they are one net.
+    let flips = net::orient(&mut meshed.iter_mut().map(|m| &mut m.mesh).collect::<Vec<_>>());
+    for (m, flipped) in meshed.iter_mut().zip(flips) {
+        m.flipped = flipped;
+    }
+    Ok(meshed)
 }
 
 fn mesh_block(
@@ -393,7 +420,12 @@ fn mesh_block(
     let build_failed = |e: BuildError| {
         let curve = match &e {
             BuildError::Curve { curve, .. } => Some(program.curves[curve.index()].span),
-            BuildError::Compile(_) => None,
+            BuildError::Compile(c) => {
+                if let Some(d) = build::limit_diagnostic(c) {
+                    return d.secondary(def.span, "in this mesh block");
+                }
+                None
+            }
         };
         messages::mesh_build_failed(&def.name, def.span, &e, curve)
     };
@@ -519,6 +551,7 @@ fn finish(
         report,
         max_chord_error,
         warnings,
+        flipped: false,
         seconds: started.elapsed().as_secs_f64(),
     }
 }
@@ -527,7 +560,13 @@ fn finish(
 fn march_help(e: &MarchError) -> Option<&'static str> {
     Some(match e {
         MarchError::TooManyTriangles { .. } => {
-            "raise `max_triangles`, or bound the mesh with a `box` or `bounds`: an unbounded surface, or a front or bound walked the wrong way (see `reverse`), never closes"
+            "raise `max_triangles` if the surface is this large at this step; else look where the front was last advanced: a smaller `step` there, or a `box` around the part to mesh"
+        }
+        MarchError::Unbounded { .. } => {
+            "add a `box` around the part to mesh (a closed surface this large needs one too); if a `front` or `bounds` polygon should close the mesh, it may be walked the wrong way (see `reverse`)"
+        }
+        MarchError::Overlapping { .. } => {
+            "two sheets of the surface come closer there than the step: use a smaller `step`, or a `box` that keeps the mesh away from that place"
         }
         MarchError::Start { .. } | MarchError::StartOutsideBox { .. } => {
             "move `start` nearer the surface (and inside the `box`)"

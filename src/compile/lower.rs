@@ -18,6 +18,14 @@ use crate::span::Span;
 /// overflowing the stack).
 pub const MAX_DEPTH: u32 = 1000;
 
+/// The most IR nodes (operations, constants and inputs, each distinct one once) a surface or
+/// patch may have after its functions are inlined. Inlining can grow a program exponentially
+/// (`fn f1(t) = f0(f0(t)); fn f2(t) = f1(f1(t)); …`), so the size is checked as nodes are
+/// made and lowering stops as soon as it passes the limit. The largest surface of the gallery
+/// has a few hundred nodes; a tape of this size compiles to machine code in about a
+/// second and evaluates in tens of microseconds.
+pub const MAX_NODES: usize = 20_000;
+
 /// What the expression being lowered is a function of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Domain {
@@ -37,6 +45,8 @@ pub struct Lowerer<'p> {
     /// Functions and surfaces being lowered (a cycle check; sema forbids cycles, but a
     /// hand-built program must not overflow the stack).
     active_fns: Vec<FnId>,
+    /// Where each of `active_fns` was called (the first is the outermost call).
+    call_spans: Vec<Span>,
     active_surfaces: Vec<SurfaceId>,
     /// The targets of `dist`, each once, in order of first appearance, with where.
     pub dists: Vec<(SurfaceRef, Span)>,
@@ -52,6 +62,7 @@ impl<'p> Lowerer<'p> {
             calls: HashMap::new(),
             surfaces: HashMap::new(),
             active_fns: Vec::new(),
+            call_spans: Vec::new(),
             active_surfaces: Vec::new(),
             dists: Vec::new(),
             depth: 0,
@@ -89,6 +100,9 @@ impl<'p> Lowerer<'p> {
     pub fn expr(&mut self, e: &Expr, params: &[NodeId]) -> Result<NodeId, CompileError> {
         if self.depth >= MAX_DEPTH {
             return Err(CompileError::TooDeep { span: e.span });
+        }
+        if self.graph.nodes().len() > MAX_NODES {
+            return Err(self.too_large(e.span));
         }
         self.depth += 1;
         let n = self.expr_inner(e, params);
@@ -185,8 +199,10 @@ impl<'p> Lowerer<'p> {
                     });
                 }
                 self.active_fns.push(*id);
+                self.call_spans.push(span);
                 let n = self.expr(&def.body, &key.1);
                 self.active_fns.pop();
+                self.call_spans.pop();
                 let n = n?;
                 self.calls.insert(key, n);
                 n
@@ -206,6 +222,29 @@ impl<'p> Lowerer<'p> {
                 self.graph.dist(DistId(k as u32))
             }
         })
+    }
+}
+
+impl Lowerer<'_> {
+    /// The error for a graph past `MAX_NODES`: the chain of functions being inlined (outermost
+    /// first) and the outermost call, which is where the user can change something.
+    fn too_large(&self, at: Span) -> CompileError {
+        let chain = self
+            .active_fns
+            .iter()
+            .map(|f| {
+                self.program
+                    .functions
+                    .get(f.index())
+                    .map_or_else(|| format!("#{}", f.0), |d| d.name.clone())
+            })
+            .collect();
+        CompileError::TooLarge {
+            nodes: self.graph.nodes().len(),
+            limit: MAX_NODES,
+            chain,
+            span: self.call_spans.first().copied().unwrap_or(at),
+        }
     }
 }
 

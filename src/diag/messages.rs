@@ -56,7 +56,7 @@ pub const CODES: &[(&str, &str)] = &[
     ("E0504", "non-positive `step`"),
     ("E0505", "`max_triangles` that is not a positive integer"),
     ("E0506", "a mesh with neither `start`, `front` nor `box`"),
-    ("E0507", "an empty or inverted `box`"),
+    ("E0507", "an empty, inverted or too thin `box`"),
     ("E0508", "a mesh option with a value of the wrong shape"),
     ("E0509", "meshes sharing a curve with different steps"),
     ("E0510", "a patch meshed directly"),
@@ -67,9 +67,22 @@ pub const CODES: &[(&str, &str)] = &[
         "E0602",
         "a surface or curve of a mesh that could not be built",
     ),
+    ("E0603", "a surface too large after inlining its functions"),
+    ("E0604", "`dist` nested deeper than the limit"),
     ("W0001", "unused definition"),
     ("W0002", "`start` ignored because `front` is given"),
 ];
+
+/// A number as a message shows it: Rust's shortest round-trip form, in scientific notation
+/// when it is very large or very small, so that `1e300` is not echoed as 301 digits.
+pub fn number(v: f64) -> String {
+    let a = v.abs();
+    if a.is_finite() && a != 0.0 && !(1e-4..1e15).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
 
 fn or_list(items: &[&str]) -> String {
     match items {
@@ -506,7 +519,7 @@ pub fn not_finite(span: Span, what: &str, value: f64) -> Diagnostic {
         format!("{}infinite", if value < 0.0 { "negative " } else { "" })
     };
     Diagnostic::error("E0401", format!("{what} is {v}"))
-        .primary(span, format!("evaluates to {value}"))
+        .primary(span, format!("evaluates to {}", number(value)))
         .help("check for a division by zero, a logarithm of zero or a number too large")
 }
 
@@ -538,10 +551,14 @@ pub fn inverted_range(span: Span, param: &str, lo: f64, hi: f64) -> Diagnostic {
     let what = if lo == hi { "empty" } else { "inverted" };
     Diagnostic::error(
         "E0405",
-        format!("the range of `{param}` is {what}: {lo}..{hi}"),
+        format!(
+            "the range of `{param}` is {what}: {}..{}",
+            number(lo),
+            number(hi)
+        ),
     )
     .primary(span, "the lower bound must be less than the upper")
-    .maybe_help((lo > hi).then(|| format!("swap the bounds: `{hi}..{lo}`")))
+    .maybe_help((lo > hi).then(|| format!("swap the bounds: `{}..{}`", number(hi), number(lo))))
 }
 
 pub fn patch_param_count(span: Span, got: usize) -> Diagnostic {
@@ -583,16 +600,28 @@ pub fn missing_step(span: Span, mesh: &str) -> Diagnostic {
 }
 
 pub fn non_positive_step(span: Span, value: f64) -> Diagnostic {
-    Diagnostic::error("E0504", format!("`step` must be positive, it is {value}"))
-        .primary(span, "the step is the edge length of the triangles")
+    Diagnostic::error(
+        "E0504",
+        format!("`step` must be positive, it is {}", number(value)),
+    )
+    .primary(span, "the step is the edge length of the triangles")
 }
 
 pub fn bad_max_triangles(span: Span, value: f64) -> Diagnostic {
+    let label = if value >= 1.0 && value.fract() == 0.0 {
+        "more than a 64-bit count can hold"
+    } else {
+        "not a positive whole number"
+    };
     Diagnostic::error(
         "E0505",
-        format!("`max_triangles` must be a positive whole number, it is {value}"),
+        format!(
+            "`max_triangles` must be a positive whole number below 2^64, it is {}",
+            number(value)
+        ),
     )
-    .primary(span, "not a positive whole number")
+    .primary(span, label)
+    .note("the default is sized from the mesh's box and step; see docs/language.md")
 }
 
 pub fn no_start(span: Span, mesh: &str) -> Diagnostic {
@@ -608,13 +637,31 @@ pub fn bad_box(span: Span, axis: &str, lo: f64, hi: f64) -> Diagnostic {
     let what = if lo == hi { "empty" } else { "inverted" };
     Diagnostic::error(
         "E0507",
-        format!("the box is {what} along {axis}: {lo} .. {hi}"),
+        format!(
+            "the box is {what} along {axis}: {} .. {}",
+            number(lo),
+            number(hi)
+        ),
     )
     .primary(
         span,
         "each component of the first corner must be less than the second's",
     )
     .help("write `box: (xmin, ymin, zmin) .. (xmax, ymax, zmax);`")
+}
+
+/// A box narrower along `axis` than `min` (a fixed fraction of the step): no triangle fits.
+pub fn thin_box(span: Span, axis: &str, width: f64, min: f64) -> Diagnostic {
+    Diagnostic::error(
+        "E0507",
+        format!(
+            "the box is only {} wide along {axis}, less than {} (a millionth of the step)",
+            number(width),
+            number(min)
+        ),
+    )
+    .primary(span, "too thin to hold a triangle")
+    .help("widen the box, or leave it out")
 }
 
 pub fn option_shape(span: Span, option: &str, expected: &str) -> Diagnostic {
@@ -639,11 +686,11 @@ pub fn shared_curve_steps(
     )
     .primary(
         second.2,
-        format!("`{}` samples it at step {}", second.0, second.1),
+        format!("`{}` samples it at step {}", second.0, number(second.1)),
     )
     .secondary(
         first.2,
-        format!("`{}` samples it at step {}", first.0, first.1),
+        format!("`{}` samples it at step {}", first.0, number(first.1)),
     )
     .note("meshes that share a curve share its polygon, which is sampled at the mesh's step")
     .help("give both meshes the same `step`")
@@ -710,4 +757,41 @@ pub fn mesh_build_failed(
         Some(c) => d.secondary(c, "the curve is defined here"),
         None => d,
     }
+}
+
+/// A surface whose inlined functions pass the size limit; `span` is the outermost call of
+/// the chain of functions being inlined.
+pub fn surface_too_large(span: Span, nodes: usize, limit: usize, chain: &[String]) -> Diagnostic {
+    let label = match chain {
+        [] => "this expression".to_string(),
+        [only] => format!("inlining `{only}` here"),
+        _ => format!(
+            "inlining {} here",
+            chain
+                .iter()
+                .map(|f| format!("`{f}`"))
+                .collect::<Vec<_>>()
+                .join(" → ")
+        ),
+    };
+    Diagnostic::error(
+        "E0603",
+        format!("the surface is too large: more than {limit} operations after inlining"),
+    )
+    .primary(span, label)
+    .note(format!(
+        "lowering stopped at {nodes} operations; each call inlines its function's body, so functions that call another twice double in size at every level"
+    ))
+    .help("compute a repeated value once (a `const`, or one call whose result is used twice), or write the function with fewer nested calls")
+}
+
+/// `dist` nested deeper than the limit; `span` is the innermost `dist` call of the chain.
+pub fn dist_too_deep(span: Span, limit: usize, chain: &[String]) -> Diagnostic {
+    Diagnostic::error(
+        "E0604",
+        format!("`dist` is nested more than {limit} deep"),
+    )
+    .primary(span, format!("level {} of {}", chain.len(), chain.join(" → ")))
+    .note("each level of `dist` evaluates the one inside it tens of times per foot point, so the work grows about 30-fold a level")
+    .help("measure the distance to the innermost surface once: `offset(S, a + b)` instead of `offset(offset(S, a), b)`")
 }

@@ -12,6 +12,7 @@ use std::collections::{BTreeMap, BinaryHeap};
 use glam::DVec3;
 
 use super::angle::{ccw, front_angle, polar, triangle_count};
+use super::guard::{self, Guard};
 use super::hash::SpatialHash;
 use super::improve;
 use super::ring::{FrontId, NodeId, PointId, Rings};
@@ -71,7 +72,13 @@ pub(super) fn run<'s>(
         size: Vec::new(),
         floored: None,
         bbox: input.bbox,
-        max_triangles: input.max_triangles.unwrap_or(settings.max_triangles),
+        guard: Guard::new(
+            step,
+            input.bbox,
+            input
+                .max_triangles
+                .unwrap_or_else(|| guard::default_limit(input.bbox, step, settings.max_triangles)),
+        ),
         progress,
         trace,
         pos: Vec::new(),
@@ -136,7 +143,8 @@ struct Marcher<'s> {
     size: Vec<Size>,
     floored: Option<DVec3>,
     bbox: Option<(DVec3, DVec3)>,
-    max_triangles: u64,
+    /// The triangle limit and the watch for marches that cannot end.
+    guard: Guard,
     /// Where the triangle count goes for a progress bar, if anyone watches.
     progress: Option<&'s std::sync::atomic::AtomicU64>,
     trace: bool,
@@ -658,12 +666,7 @@ impl Marcher<'_> {
                     std::sync::atomic::Ordering::Relaxed,
                 );
             }
-            if self.triangles.len() as u64 > self.max_triangles {
-                return Err(MarchError::TooManyTriangles {
-                    limit: self.max_triangles,
-                    at: last_at,
-                });
-            }
+            self.guard.check(&self.pos, &self.triangles, last_at)?;
         }
     }
 

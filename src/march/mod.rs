@@ -23,6 +23,7 @@
 //! `SURFC_TRACE=1` in the environment prints a step-by-step trace to stderr.
 
 pub mod angle;
+pub mod guard;
 pub mod hash;
 mod improve;
 mod marcher;
@@ -61,7 +62,8 @@ pub struct MarchInput {
     pub bounds: Vec<Vec<DVec3>>,
     /// A global bounding box (lo, hi): the mesh stops at its faces.
     pub bbox: Option<(DVec3, DVec3)>,
-    /// Overrides `MarchSettings::max_triangles`.
+    /// Overrides the default limit: `MarchSettings::max_triangles`, or with a box what the
+    /// box can hold (`guard::default_limit`).
     pub max_triangles: Option<u64>,
     /// The largest chord error allowed (model units); `None`: `MarchSettings::tolerance`·δ.
     pub tolerance: Option<f64>,
@@ -164,6 +166,24 @@ pub enum MarchError {
     },
     #[error("more than {limit} triangles (the front was last advanced at {at})")]
     TooManyTriangles { limit: u64, at: DVec3 },
+    #[error(
+        "the surface is unbounded here, add a box: after {triangles} triangles the mesh is {extent:.3e} across and still growing (the front was last advanced at {at})"
+    )]
+    Unbounded {
+        at: DVec3,
+        triangles: u64,
+        /// The diagonal of the mesh's bounding box.
+        extent: f64,
+    },
+    #[error(
+        "the front keeps overlapping itself near {at}: the step is too coarse for the surface there ({triangles} triangles in {lo} .. {hi}, more than that region holds at this step)"
+    )]
+    Overlapping {
+        at: DVec3,
+        triangles: u64,
+        lo: DVec3,
+        hi: DVec3,
+    },
     #[error(
         "the front stopped making progress near {at} after {iterations} steps without a triangle"
     )]

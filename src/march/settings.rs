@@ -51,8 +51,10 @@ pub struct MarchSettings {
     pub improve_angle: f64,
     /// Rounds of the repair pass (flips, then moves). Default 3.
     pub improve_rounds: u32,
-    /// Largest number of triangles before the marcher gives up (`MarchInput::max_triangles`
-    /// overrides it). Default 10 000 000 (a sphere at step radius/500; ~10 s).
+    /// Largest number of triangles before the marcher gives up without a box
+    /// (`MarchInput::max_triangles` overrides it; with a box the default is what the box can
+    /// hold, `guard::default_limit`, at most this). Default 10 000 000 (a sphere at step
+    /// radius/500; ~10 s).
     pub max_triangles: u64,
     /// A front or bound polygon's edges must be between `polygon_edge_min · δ` and
     /// `polygon_edge_max · δ` long. Defaults 0.25 and 2.5.

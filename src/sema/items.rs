@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 
 use glam::DVec3;
 
+use crate::diag::Diagnostic;
 use crate::diag::messages::{self, FoundInsteadOfCurve};
 use crate::span::Span;
 use crate::syntax::ast;
@@ -13,6 +14,25 @@ use crate::syntax::ast;
 use super::expr::{Ctx, Place};
 use super::program::*;
 use super::{CURVE_CONSTRUCTORS, Checker, Kind};
+
+/// 2^64: the first whole number a `u64` cannot hold.
+const TWO_TO_64: f64 = 18_446_744_073_709_551_616.0;
+
+/// A box must be at least this fraction of the step wide along every axis.
+pub(crate) const MIN_BOX_WIDTH: f64 = 1e-6;
+
+/// What is wrong with a box from `l` to `h` for a mesh of `step` (if it is known): an empty or
+/// inverted axis, or one thinner than `MIN_BOX_WIDTH` steps (a box one ulp wide included).
+fn box_error(span: Span, l: DVec3, h: DVec3, step: Option<f64>) -> Option<Diagnostic> {
+    let axis = |k: usize| ["x", "y", "z"][k];
+    if let Some(k) = (0..3).find(|&k| l[k] >= h[k]) {
+        return Some(messages::bad_box(span, axis(k), l[k], h[k]));
+    }
+    let min = MIN_BOX_WIDTH * step?;
+    (0..3)
+        .find(|&k| h[k] - l[k] < min)
+        .map(|k| messages::thin_box(span, axis(k), h[k] - l[k], min))
+}
 
 const MESH_OPTIONS: [&str; 8] = [
     "step",
@@ -584,21 +604,13 @@ impl<'f> Checker<'f> {
                     let l = self.point(lo, "the box's corner");
                     let h = self.point(hi, "the box's corner");
                     match (l, h) {
-                        (Some(l), Some(h)) => {
-                            let bad = (0..3).find(|&k| l[k] >= h[k]);
-                            match bad {
-                                Some(k) => {
-                                    self.diags.push(messages::bad_box(
-                                        *span,
-                                        ["x", "y", "z"][k],
-                                        l[k],
-                                        h[k],
-                                    ));
-                                    ok = false;
-                                }
-                                None => bbox = Some((l, h)),
+                        (Some(l), Some(h)) => match box_error(*span, l, h, step) {
+                            Some(d) => {
+                                self.diags.push(d);
+                                ok = false;
                             }
-                        }
+                            None => bbox = Some((l, h)),
+                        },
                         _ => ok = false,
                     }
                 }
@@ -649,7 +661,8 @@ impl<'f> Checker<'f> {
         if let Some(o) = seen.get("max_triangles") {
             match self.single_value(o, "a positive whole number") {
                 Some(e) => match self.number(e, "`max_triangles`") {
-                    Some(v) if v >= 1.0 && v.fract() == 0.0 && v <= u64::MAX as f64 => {
+                    // 2^64 itself is `u64::MAX as f64`: the bound is strict.
+                    Some(v) if v >= 1.0 && v.fract() == 0.0 && v < TWO_TO_64 => {
                         max_triangles = Some(v as u64);
                     }
                     Some(v) => {

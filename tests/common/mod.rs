@@ -6,6 +6,7 @@
 pub mod build;
 pub mod rng;
 pub mod thin;
+pub mod cli;
 pub mod voxel;
 
 use glam::{DMat3, DVec3};

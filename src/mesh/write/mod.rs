@@ -15,6 +15,7 @@ mod obj;
 mod off;
 mod ply;
 mod stl;
+pub mod target;
 mod threemf;
 mod vtu;
 
@@ -269,6 +270,20 @@ pub enum WriteError {
     InvalidMesh { path: PathBuf, source: InvalidMesh },
     #[error("cannot write `{}`: replacing it failed: {source}", path.display())]
     Replace { path: PathBuf, source: io::Error },
+    #[error(
+        "cannot write `{}`: it is the input file `{}`; choose another output with -o",
+        path.display(),
+        input.display()
+    )]
+    SameAsInput { path: PathBuf, input: PathBuf },
+    #[error(
+        "cannot write `{}`: permission denied: {} read-only and is not replaced",
+        path.display(),
+        if path == file { "the file is".to_string() } else { format!("its target `{}` is", file.display()) }
+    )]
+    ReadOnly { path: PathBuf, file: PathBuf },
+    #[error("cannot write `{}`: it is a directory", path.display())]
+    IsDirectory { path: PathBuf },
 }
 
 impl WriteError {
@@ -279,7 +294,10 @@ impl WriteError {
             | WriteError::CreateTemporary { path, .. }
             | WriteError::Write { path, .. }
             | WriteError::InvalidMesh { path, .. }
-            | WriteError::Replace { path, .. } => path,
+            | WriteError::Replace { path, .. }
+            | WriteError::SameAsInput { path, .. }
+            | WriteError::ReadOnly { path, .. }
+            | WriteError::IsDirectory { path } => path,
         }
     }
 }
@@ -302,18 +320,25 @@ pub fn write_mesh_file(
 /// Writes a file atomically: `write` fills a temporary file in `path`'s directory, which then
 /// replaces `path`. If `write` fails (or flushing, syncing or renaming does), `path` keeps its
 /// old contents and the temporary file is removed. The new file gets the permissions of the
-/// file it replaces, or the usual ones (0o666 less the umask) for a new file.
+/// file it replaces, or the usual ones (0o666 less the umask) for a new file. What `path` is
+/// decides how ([`target::resolve`]): a symlink is followed and its target replaced, a FIFO or
+/// device is written in place, a read-only file or a directory is refused.
 pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
 ) -> Result<(), WriteError> {
+    let resolved = match target::resolve(path)? {
+        target::Target::Replace(resolved) => resolved,
+        target::Target::Direct(special) => return write_direct(path, &special, write),
+    };
+    let (user_path, path) = (path, resolved.as_path());
     let dir = match path.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
         _ => PathBuf::from("."),
     };
     if !dir.is_dir() {
         return Err(WriteError::MissingDirectory {
-            path: path.to_path_buf(),
+            path: user_path.to_path_buf(),
             dir,
         });
     }
@@ -336,12 +361,12 @@ pub fn write_atomic(
     let temporary = builder
         .tempfile_in(&dir)
         .map_err(|source| WriteError::CreateTemporary {
-            path: path.to_path_buf(),
+            path: user_path.to_path_buf(),
             dir: dir.clone(),
             source,
         })?;
     let write_error = |source| WriteError::Write {
-        path: path.to_path_buf(),
+        path: user_path.to_path_buf(),
         source,
     };
     let mut out = BufWriter::new(temporary);
@@ -349,10 +374,29 @@ pub fn write_atomic(
     let temporary = out.into_inner().map_err(|e| write_error(e.into_error()))?;
     temporary.as_file().sync_all().map_err(write_error)?;
     temporary.persist(path).map_err(|e| WriteError::Replace {
-        path: path.to_path_buf(),
+        path: user_path.to_path_buf(),
         source: e.error,
     })?;
     Ok(())
+}
+
+/// Writes to a special file in place: no temporary file, no rename, nothing to sync.
+fn write_direct(
+    path: &Path,
+    special: &Path,
+    write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<(), WriteError> {
+    let write_error = |source| WriteError::Write {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = fs::OpenOptions::new()
+        .write(true)
+        .open(special)
+        .map_err(write_error)?;
+    let mut out = BufWriter::new(file);
+    write(&mut out).map_err(write_error)?;
+    out.flush().map_err(write_error)
 }
 
 impl Format {

@@ -1,0 +1,234 @@
+//! Bounded meshing: how many triangles a mesh block may make, and a watch on the growing mesh
+//! that stops a march that cannot end long before that limit, saying why.
+//!
+//! A march ends when its fronts close. Two things keep them from closing:
+//! - the surface is unbounded where the front walks (a plane, a tube without a box, a bound
+//!   walked the wrong way round on an open surface): the mesh's extent grows with its
+//!   triangles and never stops — like a disc (√2 per doubling of the triangles, all normals
+//!   one way) or like a tube (2 per doubling);
+//! - the step is too coarse for the surface (two sheets closer than the step): new points
+//!   land on the other sheet, fronts overlap and never meet, and triangles pile up in the same
+//!   place — more of them than the mesh's extent can hold at this step.
+//!
+//! The watch looks at the triangles made so far at every doubling of their number (from
+//! `FIRST_CHECK`), so it costs O(1) per triangle. A closed surface is never flagged before it
+//! would have passed the default limit anyway: a sphere must be more than ≈ 700 steps across
+//! to look like a plane over 200 steps (and then has more than 10 M triangles).
+
+use glam::DVec3;
+
+use super::MarchError;
+
+/// The first check, in triangles; then every doubling.
+const FIRST_CHECK: u64 = 4096;
+/// The mesh must be at least this many steps across before it is called unbounded.
+const UNBOUNDED_EXTENT: f64 = 200.0;
+/// |Σ area · normal| / Σ area above this: the mesh is flat as a plane (a spherical cap of 8°).
+const FLAT: f64 = 0.995;
+/// Per doubling of the triangles a disc grows by √2 in extent, a tube by 2, a closed surface
+/// less and less. These many checks in a row must show growth by these factors.
+const GROWING_CHECKS: usize = 3;
+const DISC_GROWTH: f64 = 1.3;
+const TUBE_GROWTH: f64 = 1.7;
+/// At most this many triangles per cube of the step in the mesh's extent (grown by a step on
+/// every side). Sheets the marcher keeps apart are at least about a step apart, so a surface
+/// holds about 2.3 triangles per step³ of volume at the densest; the factor leaves room for
+/// a local step below the step and for small meshes.
+pub const TRIANGLES_PER_STEP_CUBED: f64 = 32.0;
+/// A box-sized default limit never goes below this many triangles.
+const MIN_BOX_LIMIT: u64 = 100_000;
+
+/// The default triangle limit of a mesh block: what its box can hold at the step
+/// (`TRIANGLES_PER_STEP_CUBED` per step³ of the box grown by a step), between
+/// `MIN_BOX_LIMIT` and `cap`; without a box, `cap`.
+pub fn default_limit(bbox: Option<(DVec3, DVec3)>, step: f64, cap: u64) -> u64 {
+    let Some((lo, hi)) = bbox else {
+        return cap;
+    };
+    let cells = ((hi - lo) / step + 2.0).element_product();
+    let limit = TRIANGLES_PER_STEP_CUBED * cells;
+    // Saturating: a huge box (or a NaN from a degenerate one) gives the cap.
+    if limit.is_finite() && limit < cap as f64 {
+        (limit.ceil() as u64).clamp(MIN_BOX_LIMIT.min(cap), cap)
+    } else {
+        cap
+    }
+}
+
+/// The watch on one march.
+#[derive(Clone, Debug)]
+pub struct Guard {
+    step: f64,
+    /// A box bounds the mesh: it cannot be unbounded.
+    boxed: bool,
+    limit: u64,
+    /// Triangles already looked at.
+    seen: usize,
+    next_check: u64,
+    lo: DVec3,
+    hi: DVec3,
+    /// Σ of the triangles' area vectors (½ (b − a) × (c − a)) and of their areas.
+    area_vector: DVec3,
+    area: f64,
+    /// The extent (bounding-box diagonal) at each check so far.
+    extents: Vec<f64>,
+}
+
+impl Guard {
+    pub fn new(step: f64, bbox: Option<(DVec3, DVec3)>, limit: u64) -> Guard {
+        Guard {
+            step,
+            boxed: bbox.is_some(),
+            limit,
+            seen: 0,
+            next_check: FIRST_CHECK,
+            lo: DVec3::INFINITY,
+            hi: DVec3::NEG_INFINITY,
+            area_vector: DVec3::ZERO,
+            area: 0.0,
+            extents: Vec::new(),
+        }
+    }
+
+    /// Looks at the triangles made since the last call; an error if there are more than the
+    /// limit, or at a check, if the mesh grows without end or piles up. `at` is where the
+    /// front was last advanced.
+    pub fn check(
+        &mut self,
+        points: &[DVec3],
+        triangles: &[[u32; 3]],
+        at: DVec3,
+    ) -> Result<(), MarchError> {
+        for t in triangles.get(self.seen..).unwrap_or_default() {
+            let [Some(&a), Some(&b), Some(&c)] = t.map(|i| points.get(i as usize)) else {
+                continue;
+            };
+            self.lo = self.lo.min(a).min(b).min(c);
+            self.hi = self.hi.max(a).max(b).max(c);
+            let v = 0.5 * (b - a).cross(c - a);
+            self.area_vector += v;
+            self.area += v.length();
+        }
+        self.seen = triangles.len();
+        let count = triangles.len() as u64;
+        if count > self.limit {
+            return Err(MarchError::TooManyTriangles {
+                limit: self.limit,
+                at,
+            });
+        }
+        if count < self.next_check {
+            return Ok(());
+        }
+        self.next_check = count.saturating_mul(2);
+        self.at_check(count, at)
+    }
+
+    fn at_check(&mut self, count: u64, at: DVec3) -> Result<(), MarchError> {
+        let size = self.hi - self.lo;
+        let extent = size.length();
+        self.extents.push(extent);
+        let cells = (size / self.step + 2.0).element_product();
+        if count as f64 > TRIANGLES_PER_STEP_CUBED * cells {
+            return Err(MarchError::Overlapping {
+                at,
+                triangles: count,
+                lo: self.lo,
+                hi: self.hi,
+            });
+        }
+        if self.boxed || extent < UNBOUNDED_EXTENT * self.step {
+            return Ok(());
+        }
+        let growth = |factor: f64| {
+            self.extents.len() > GROWING_CHECKS
+                && self
+                    .extents
+                    .windows(2)
+                    .rev()
+                    .take(GROWING_CHECKS)
+                    .all(|w| w[1] >= factor * w[0])
+        };
+        let flat = self.area > 0.0 && self.area_vector.length() >= FLAT * self.area;
+        if (flat && growth(DISC_GROWTH)) || growth(TUBE_GROWTH) {
+            return Err(MarchError::Unbounded {
+                at,
+                triangles: count,
+                extent,
+            });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_limit_follows_the_box() {
+        assert_eq!(default_limit(None, 0.1, 10_000_000), 10_000_000);
+        // A box 10 steps wide: 12³ cells of the step (the box grown by a step each side).
+        let unit = Some((DVec3::ZERO, DVec3::splat(1.0)));
+        assert_eq!(default_limit(unit, 0.1, 10_000_000), MIN_BOX_LIMIT);
+        let big = Some((DVec3::ZERO, DVec3::splat(100.0)));
+        let expected = (TRIANGLES_PER_STEP_CUBED * 102.0f64.powi(3)).ceil() as u64;
+        assert_eq!(default_limit(big, 1.0, 100_000_000), expected);
+        assert_eq!(default_limit(big, 1.0, 10_000_000), 10_000_000);
+        assert_eq!(default_limit(big, 1e-300, 10_000_000), 10_000_000);
+    }
+
+    /// A flat disc of triangles growing ring by ring.
+    fn disc(rings: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        let mut points = vec![DVec3::ZERO];
+        let mut triangles = Vec::new();
+        for r in 1..=rings {
+            let n = 6 * r;
+            let first = points.len() as u32;
+            for k in 0..n {
+                let a = std::f64::consts::TAU * f64::from(k) / f64::from(n);
+                points.push(f64::from(r) * DVec3::new(a.cos(), a.sin(), 0.0));
+            }
+            // A fan to the centre is enough for areas and extents.
+            for k in 0..n {
+                triangles.push([0, first + k, first + (k + 1) % n]);
+            }
+        }
+        (points, triangles)
+    }
+
+    #[test]
+    fn a_growing_plane_is_unbounded_and_a_boxed_one_is_not() {
+        let (points, triangles) = disc(400);
+        let mut guard = Guard::new(1.0, None, u64::MAX);
+        let mut found = None;
+        for end in (1000..=triangles.len()).step_by(1000) {
+            if let Err(e) = guard.check(&points, &triangles[..end], DVec3::ZERO) {
+                found = Some(e);
+                break;
+            }
+        }
+        assert!(
+            matches!(found, Some(MarchError::Unbounded { .. })),
+            "{found:?}"
+        );
+        let boxed = Some((DVec3::splat(-1e6), DVec3::splat(1e6)));
+        let mut guard = Guard::new(1.0, boxed, u64::MAX);
+        assert!(guard.check(&points, &triangles, DVec3::ZERO).is_ok());
+    }
+
+    #[test]
+    fn triangles_piling_up_in_place_are_overlapping() {
+        // The same small triangle, again and again: a front walking over itself.
+        let points = vec![DVec3::ZERO, DVec3::X, DVec3::Y];
+        let triangles = vec![[0, 1, 2]; 5000];
+        let mut guard = Guard::new(1.0, None, u64::MAX);
+        assert!(matches!(
+            guard.check(&points, &triangles, DVec3::ZERO),
+            Err(MarchError::Overlapping {
+                triangles: 5000,
+                ..
+            })
+        ));
+    }
+}

@@ -1,0 +1,191 @@
+//! Inputs that used to make surfc work for minutes end in seconds with a diagnostic that says
+//! which limit was reached and where (DESIGN.md §2, docs/language.md "Limits"): an exponential
+//! chain of functions (E0603), `dist` nested too deep (E0604), a march that cannot end because
+//! the surface is unbounded or the front overlaps itself (E0601).
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+mod common;
+
+/// Runs `surfc ARGS` in `dir`: exit code, stderr and how long it took.
+fn surfc(args: &[&str], dir: &Path) -> (i32, String, Duration) {
+    let run = common::cli::surfc(args, dir);
+    (run.code, run.stderr, run.took)
+}
+
+/// A scratch directory holding `file` with `text`.
+fn scratch(name: &str, file: &str, text: &str) -> PathBuf {
+    let dir = common::cli::scratch(&format!("bounded-{name}"));
+    std::fs::write(dir.join(file), text).unwrap();
+    dir
+}
+
+/// Generous: the limits are reached in milliseconds; a loaded machine gets slack.
+const QUICK: Duration = Duration::from_secs(2);
+
+/// `fn f1(t) = f0(f0(t)); fn f2(t) = f1(f1(t)); …` up to `levels`: 2^levels copies of f0.
+fn doubling_chain(levels: usize) -> String {
+    let mut s = String::from("fn f0(t) = sin(t) + t;\n");
+    for k in 1..=levels {
+        s.push_str(&format!("fn f{k}(t) = f{j}(f{j}(t));\n", j = k - 1));
+    }
+    s.push_str(&format!(
+        "surface s = f{levels}(x) + y^2 + z^2 - 1;\nmesh m = s {{ step: 0.5; start: (1, 0, 0); }}\n"
+    ));
+    s
+}
+
+#[test]
+fn an_exponential_function_chain_is_stopped_while_inlining() {
+    let dir = scratch("chain", "chain.surf", &doubling_chain(22));
+    for args in [
+        &["check", "chain.surf"][..],
+        &["eval", "chain.surf", "s", "1", "0", "0"],
+        &["bytecode", "chain.surf", "s"],
+        &["mesh", "chain.surf", "-q", "-o", "chain.obj"],
+    ] {
+        let (code, stderr, took) = surfc(args, &dir);
+        assert_eq!(code, 1, "{args:?}: {stderr}");
+        assert!(stderr.contains("error[E0603]"), "{args:?}: {stderr}");
+        // The chain is named, outermost first, and the size reached is given.
+        assert!(stderr.contains("`f22` → `f21` → `f20`"), "{stderr}");
+        assert!(
+            stderr.contains("lowering stopped at 20001 operations"),
+            "{stderr}"
+        );
+        // The label is on the outermost call, in the surface.
+        assert!(stderr.contains("surface s = f22(x)"), "{stderr}");
+        assert!(took < QUICK, "{args:?} took {took:?}");
+    }
+    assert!(!dir.join("chain.obj").exists());
+}
+
+#[test]
+fn a_short_function_chain_still_compiles() {
+    // 2^10 copies of f0: about 2000 operations, well below the limit.
+    let dir = scratch("short", "short.surf", &doubling_chain(10));
+    let (code, stderr, _) = surfc(&["eval", "short.surf", "s", "1", "0", "0"], &dir);
+    assert_eq!(code, 0, "{stderr}");
+}
+
+/// Surfaces s1 … s`levels`, each `dist` of the one before, less 0.1.
+fn dist_chain(levels: usize) -> String {
+    let mut s = String::from("surface s0 = x^2 + y^2 + z^2 - 1;\n");
+    for k in 1..=levels {
+        s.push_str(&format!("surface s{k} = dist(s{j}) - 0.1;\n", j = k - 1));
+    }
+    s.push_str(&format!(
+        "mesh m = s{levels} {{ step: 0.3; start: (2, 0, 0); }}\n"
+    ));
+    s
+}
+
+#[test]
+fn nested_dist_is_limited() {
+    let anonymous = "surface s = x^2 + y^2 + z^2 - 1;\n\
+                     surface d = dist(dist(dist(dist(s) - 0.1) - 0.1) - 0.1) - 0.1;\n\
+                     mesh m = d { step: 0.3; start: (1.4, 0, 0); }\n";
+    for (name, text, top, chain) in [
+        (
+            "anonymous",
+            anonymous.to_string(),
+            "d",
+            "level 4 of dist(…) → dist(…) → dist(…) → dist(s)",
+        ),
+        (
+            "four",
+            dist_chain(4),
+            "s4",
+            "level 4 of dist(s3) → dist(s2) → dist(s1) → dist(s0)",
+        ),
+        (
+            "two_hundred",
+            dist_chain(200),
+            "s200",
+            // `check` reports the first surface past the limit (s4), `eval` and `mesh` s200.
+            "level 4 of dist(s",
+        ),
+    ] {
+        let dir = scratch(name, "d.surf", &text);
+        for args in [
+            &["check", "d.surf"][..],
+            &["eval", "d.surf", top, "1", "0", "0"],
+            &["mesh", "d.surf", "-q", "-o", "d.obj"],
+        ] {
+            let (code, stderr, took) = surfc(args, &dir);
+            assert_eq!(code, 1, "{name} {args:?}: {stderr}");
+            assert!(stderr.contains("error[E0604]"), "{name}: {stderr}");
+            assert!(
+                stderr.contains("nested more than 3 deep"),
+                "{name}: {stderr}"
+            );
+            assert!(stderr.contains(chain), "{name}: {stderr}");
+            assert!(took < QUICK, "{name} {args:?} took {took:?}");
+        }
+    }
+}
+
+#[test]
+fn dist_three_deep_still_evaluates() {
+    let dir = scratch("three", "d.surf", &dist_chain(3));
+    let run = common::cli::surfc(&["eval", "d.surf", "s3", "2", "0", "0", "--json"], &dir);
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    // |p| − 1 − 0.3 at |p| = 2: three offsets of the unit sphere's distance.
+    let value = json["value"].as_f64().unwrap();
+    assert!((value - 0.7).abs() < 1e-6, "{value}");
+}
+
+/// A mesh that can never close is stopped early with the reason that fits: an unbounded
+/// surface (a plane, a tube) versus a front overlapping itself (two spheres 0.2 apart at
+/// step 0.6: the step is too coarse there).
+#[test]
+fn a_march_that_cannot_end_says_why_within_two_seconds() {
+    let cases = [
+        (
+            "plane",
+            "surface p = z;\nmesh m = p { step: 0.1; start: (0, 0, 0); }\n",
+            "the surface is unbounded here, add a box",
+        ),
+        (
+            "tube",
+            "surface c = x^2 + y^2 - 1;\nmesh m = c { step: 0.1; start: (1, 0, 0); }\n",
+            "the surface is unbounded here, add a box",
+        ),
+        (
+            "spheres",
+            "surface s = min(sqrt((x - 1.1)^2 + y^2 + z^2) - 1, sqrt((x + 1.1)^2 + y^2 + z^2) - 1);\n\
+             mesh m = s { step: 0.6; start: (2.1, 0, 0); }\n",
+            "the front keeps overlapping itself near [",
+        ),
+    ];
+    for (name, text, reason) in cases {
+        let dir = scratch(name, "m.surf", text);
+        let (code, stderr, took) = surfc(&["mesh", "m.surf", "-q", "-o", "m.obj"], &dir);
+        assert_eq!(code, 1, "{name}: {stderr}");
+        assert!(stderr.contains("error[E0601]"), "{name}: {stderr}");
+        assert!(stderr.contains(reason), "{name}: {stderr}");
+        assert!(took < QUICK, "{name} took {took:?}");
+        assert!(!dir.join("m.obj").exists());
+    }
+}
+
+/// The same plane in a box meshes: the box bounds it, and the default limit (what the box
+/// holds) leaves room for it.
+#[test]
+fn a_plane_in_a_box_meshes() {
+    let text = "surface p = z;\n\
+                mesh m = p { step: 0.1; start: (0, 0, 0); box: (-2, -2, -1) .. (2, 2, 1); }\n";
+    let dir = scratch("boxed", "m.surf", text);
+    let run = common::cli::surfc(&["mesh", "m.surf", "-q", "--json", "-o", "m.obj"], &dir);
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let m = &json["meshes"][0];
+    // A 4 × 4 square at step 0.1: one boundary loop, a disc.
+    assert_eq!(m["boundary_loops"], 1);
+    assert_eq!(m["euler_characteristic"], 1);
+    let triangles = m["triangles"].as_u64().unwrap();
+    // Area 16 over equilateral triangles of side ≈ 0.1 (area ≈ 0.0043): about 3700.
+    assert!((2500..6000).contains(&triangles), "{triangles}");
+}
