@@ -138,8 +138,9 @@ fn dist_three_deep_still_evaluates() {
 }
 
 /// A mesh that can never close is stopped early with the reason that fits: an unbounded
-/// surface (a plane, a tube) versus a front overlapping itself (two spheres 0.2 apart at
-/// step 0.6: the step is too coarse there).
+/// surface (a plane, a tube). (A front overlapping itself is tested in `guard.rs`; two
+/// spheres 0.2 apart at step 0.6, which overlapped before the local step, now mesh right:
+/// `close_spheres_at_a_coarse_step_mesh_right`.)
 #[test]
 fn a_march_that_cannot_end_says_why_within_two_seconds() {
     let cases = [
@@ -152,12 +153,6 @@ fn a_march_that_cannot_end_says_why_within_two_seconds() {
             "tube",
             "surface c = x^2 + y^2 - 1;\nmesh m = c { step: 0.1; start: (1, 0, 0); }\n",
             "the surface is unbounded here, add a box",
-        ),
-        (
-            "spheres",
-            "surface s = min(sqrt((x - 1.1)^2 + y^2 + z^2) - 1, sqrt((x + 1.1)^2 + y^2 + z^2) - 1);\n\
-             mesh m = s { step: 0.6; start: (2.1, 0, 0); }\n",
-            "the front keeps overlapping itself near [",
         ),
     ];
     for (name, text, reason) in cases {
@@ -188,4 +183,38 @@ fn a_plane_in_a_box_meshes() {
     let triangles = m["triangles"].as_u64().unwrap();
     // Area 16 over equilateral triangles of side ≈ 0.1 (area ≈ 0.0043): about 3700.
     assert!((2500..6000).contains(&triangles), "{triangles}");
+}
+
+/// Two unit spheres 0.2 apart at step 0.6, three times the gap: the local step takes the gap
+/// as a feature, so the sphere through the start meshes closed, and the box alone finds both.
+#[test]
+fn close_spheres_at_a_coarse_step_mesh_right() {
+    let surface =
+        "surface s = min(sqrt((x - 1.1)^2 + y^2 + z^2) - 1, sqrt((x + 1.1)^2 + y^2 + z^2) - 1);\n";
+    let cases = [
+        (
+            "one",
+            "mesh m = s { step: 0.6; start: (2.1, 0, 0); }\n",
+            1,
+            2,
+        ),
+        (
+            "both",
+            "mesh m = s { step: 0.6; box: (-2.5, -1.5, -1.5) .. (2.5, 1.5, 1.5); }\n",
+            2,
+            4,
+        ),
+    ];
+    for (name, block, components, euler) in cases {
+        let dir = scratch(name, "m.surf", &format!("{surface}{block}"));
+        let run = common::cli::surfc(&["mesh", "m.surf", "-q", "-o", "m.obj", "--json"], &dir);
+        assert_eq!(run.code, 0, "{name}: {}", run.stderr);
+        assert!(run.took < QUICK, "{name} took {:?}", run.took);
+        let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+        let mesh = &json["meshes"][0];
+        assert_eq!(mesh["components"], components, "{name}: {mesh}");
+        assert_eq!(mesh["euler_characteristic"], euler, "{name}: {mesh}");
+        assert_eq!(mesh["boundary_edges"], 0, "{name}: {mesh}");
+        assert_eq!(mesh["non_manifold_edges"], 0, "{name}: {mesh}");
+    }
 }

@@ -35,8 +35,15 @@ const TUBE_GROWTH: f64 = 1.7;
 /// holds about 2.3 triangles per step³ of volume at the densest; the factor leaves room for
 /// a local step below the step and for small meshes.
 pub const TRIANGLES_PER_STEP_CUBED: f64 = 32.0;
-/// A box-sized default limit never goes below this many triangles.
-const MIN_BOX_LIMIT: u64 = 100_000;
+/// The area of a triangle of edge `step`, in step²: the overlap test counts area, not
+/// triangles, so that the local step's smaller triangles where the surface needs them are
+/// not taken for a pile-up.
+const EQUILATERAL_AREA: f64 = 0.433_012_701_892_219_3;
+/// A box-sized default limit never goes below this many triangles: the local step may need
+/// far more triangles than the box holds at the step where the surface is thin or curved
+/// (a flat ellipsoid 0.08 thick at step 0.2 takes 0.5 M), and the overlap and growth
+/// watches, not the limit, stop the marches that cannot end.
+const MIN_BOX_LIMIT: u64 = 2_000_000;
 
 /// The default triangle limit of a mesh block: what its box can hold at the step
 /// (`TRIANGLES_PER_STEP_CUBED` per step³ of the box grown by a step), between
@@ -129,7 +136,8 @@ impl Guard {
         let extent = size.length();
         self.extents.push(extent);
         let cells = (size / self.step + 2.0).element_product();
-        if count as f64 > TRIANGLES_PER_STEP_CUBED * cells {
+        let area_in_steps = self.area / (self.step * self.step);
+        if area_in_steps > TRIANGLES_PER_STEP_CUBED * EQUILATERAL_AREA * cells {
             return Err(MarchError::Overlapping {
                 at,
                 triangles: count,

@@ -4,9 +4,9 @@
 #![allow(dead_code)]
 
 pub mod build;
+pub mod cli;
 pub mod rng;
 pub mod thin;
-pub mod cli;
 pub mod voxel;
 
 use glam::{DMat3, DVec3};
