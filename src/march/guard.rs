@@ -197,9 +197,16 @@ mod tests {
                 let a = std::f64::consts::TAU * f64::from(k) / f64::from(n);
                 points.push(f64::from(r) * DVec3::new(a.cos(), a.sin(), 0.0));
             }
-            // A fan to the centre is enough for areas and extents.
+            // Each edge of the ring joined to the nearest point of the ring inside: triangles
+            // of about unit size, so areas and extents are those of a disc.
+            let inner = 6 * (r - 1);
             for k in 0..n {
-                triangles.push([0, first + k, first + (k + 1) % n]);
+                let j = if inner == 0 {
+                    0
+                } else {
+                    first - inner + (k * (r - 1) / r) % inner
+                };
+                triangles.push([j, first + k, first + (k + 1) % n]);
             }
         }
         (points, triangles)
