@@ -7,7 +7,7 @@
 use glam::{DMat3, DVec3};
 use surfc::surface::{NativeSurface, ValueGrad};
 
-use super::Boxed;
+use super::{Boxed, vg};
 
 /// A closed surface and what is known of it.
 pub struct Shape {
@@ -29,10 +29,6 @@ impl Shape {
         let f = self.f.clone();
         Box::new(NativeSurface(move |p: DVec3| f(p)))
     }
-}
-
-fn vg(value: f64, gradient: DVec3) -> ValueGrad {
-    ValueGrad { value, gradient }
 }
 
 /// The torus of major radius `big` and tube radius `r` about the axis `rot`·z.
