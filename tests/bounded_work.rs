@@ -154,6 +154,22 @@ fn a_march_that_cannot_end_says_why_within_two_seconds() {
             "surface c = x^2 + y^2 - 1;\nmesh m = c { step: 0.1; start: (1, 0, 0); }\n",
             "the surface is unbounded here, add a box",
         ),
+        // Neither flat nor a tube: the surface itself is asked whether it reaches farther out.
+        (
+            "paraboloid",
+            "surface p = z - x^2 - y^2;\nmesh m = p { step: 0.1; start: (0, 0, 0); }\n",
+            "the surface is unbounded here, add a box",
+        ),
+        (
+            "saddle",
+            "surface p = z - x * y;\nmesh m = p { step: 0.1; start: (0, 0, 0); }\n",
+            "the surface is unbounded here, add a box",
+        ),
+        (
+            "hyperboloid",
+            "surface p = x^2 + y^2 - z^2 - 1;\nmesh m = p { step: 0.1; start: (1, 0, 0); }\n",
+            "the surface is unbounded here, add a box",
+        ),
     ];
     for (name, text, reason) in cases {
         let dir = scratch(name, "m.surf", text);

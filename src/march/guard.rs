@@ -10,6 +10,11 @@
 //!   land on the other sheet, fronts overlap and never meet, and triangles pile up in the same
 //!   place — more of them than the mesh's extent can hold at this step.
 //!
+//! A mesh that keeps growing but is neither flat nor a tube (a paraboloid: its extent grows
+//! by 2^(2/3) per doubling) is asked of the surface itself: surfacepoint from points 2, 4 and
+//! 8 times as far from the start as the mesh's farthest vertex must land about that far out
+//! too. A closed surface, however large, sends them back to itself, within its diameter.
+//!
 //! The watch looks at the triangles made so far at every doubling of their number (from
 //! `FIRST_CHECK`), so it costs O(1) per triangle. A closed surface is never flagged before it
 //! would have passed the default limit anyway: a sphere must be more than ≈ 700 steps across
@@ -30,6 +35,11 @@ const FLAT: f64 = 0.995;
 const GROWING_CHECKS: usize = 3;
 const DISC_GROWTH: f64 = 1.3;
 const TUBE_GROWTH: f64 = 1.7;
+/// The probes of a growing mesh that is neither flat nor a tube: how many times as far from
+/// the start as the farthest vertex they start, and the share of that a probe's surface point
+/// must keep (surfacepoint moves a point at most about its distance to the surface).
+const PROBE_FACTORS: [f64; 3] = [2.0, 4.0, 8.0];
+const PROBE_KEEP: f64 = 0.75;
 /// At most this many triangles per cube of the step in the mesh's extent (grown by a step on
 /// every side). Sheets the marcher keeps apart are at least about a step apart, so a surface
 /// holds about 2.3 triangles per step³ of volume at the densest; the factor leaves room for
@@ -79,6 +89,9 @@ pub struct Guard {
     area: f64,
     /// The extent (bounding-box diagonal) at each check so far.
     extents: Vec<f64>,
+    /// The first vertex of the mesh (the start) and the vertex farthest from it.
+    origin: Option<DVec3>,
+    farthest: DVec3,
 }
 
 impl Guard {
@@ -94,22 +107,34 @@ impl Guard {
             area_vector: DVec3::ZERO,
             area: 0.0,
             extents: Vec::new(),
+            origin: None,
+            farthest: DVec3::ZERO,
         }
     }
 
     /// Looks at the triangles made since the last call; an error if there are more than the
     /// limit, or at a check, if the mesh grows without end or piles up. `at` is where the
-    /// front was last advanced.
+    /// front was last advanced. `surface_point` projects a point onto the surface (None where
+    /// surfacepoint fails): the probe of a growing mesh that is neither flat nor a tube.
     pub fn check(
         &mut self,
         points: &[DVec3],
         triangles: &[[u32; 3]],
         at: DVec3,
+        surface_point: impl FnMut(DVec3) -> Option<DVec3>,
     ) -> Result<(), MarchError> {
+        let origin = *self
+            .origin
+            .get_or_insert(points.first().copied().unwrap_or(at));
         for t in triangles.get(self.seen..).unwrap_or_default() {
             let [Some(&a), Some(&b), Some(&c)] = t.map(|i| points.get(i as usize)) else {
                 continue;
             };
+            for p in [a, b, c] {
+                if p.distance_squared(origin) > self.farthest.distance_squared(origin) {
+                    self.farthest = p;
+                }
+            }
             self.lo = self.lo.min(a).min(b).min(c);
             self.hi = self.hi.max(a).max(b).max(c);
             let v = 0.5 * (b - a).cross(c - a);
@@ -128,10 +153,15 @@ impl Guard {
             return Ok(());
         }
         self.next_check = count.saturating_mul(2);
-        self.at_check(count, at)
+        self.at_check(count, at, surface_point)
     }
 
-    fn at_check(&mut self, count: u64, at: DVec3) -> Result<(), MarchError> {
+    fn at_check(
+        &mut self,
+        count: u64,
+        at: DVec3,
+        mut surface_point: impl FnMut(DVec3) -> Option<DVec3>,
+    ) -> Result<(), MarchError> {
         let size = self.hi - self.lo;
         let extent = size.length();
         self.extents.push(extent);
@@ -158,7 +188,20 @@ impl Guard {
                     .all(|w| w[1] >= factor * w[0])
         };
         let flat = self.area > 0.0 && self.area_vector.length() >= FLAT * self.area;
-        if (flat && growth(DISC_GROWTH)) || growth(TUBE_GROWTH) {
+        let reaches_out = |surface_point: &mut dyn FnMut(DVec3) -> Option<DVec3>| {
+            let Some(origin) = self.origin else {
+                return false;
+            };
+            let reach = self.farthest - origin;
+            PROBE_FACTORS.iter().all(|&k| {
+                surface_point(origin + k * reach)
+                    .is_some_and(|p| (p - origin).length() >= PROBE_KEEP * k * reach.length())
+            })
+        };
+        if (flat && growth(DISC_GROWTH))
+            || growth(TUBE_GROWTH)
+            || (growth(DISC_GROWTH) && reaches_out(&mut surface_point))
+        {
             return Err(MarchError::Unbounded {
                 at,
                 triangles: count,
@@ -218,7 +261,7 @@ mod tests {
         let mut guard = Guard::new(1.0, None, u64::MAX);
         let mut found = None;
         for end in (1000..=triangles.len()).step_by(1000) {
-            if let Err(e) = guard.check(&points, &triangles[..end], DVec3::ZERO) {
+            if let Err(e) = guard.check(&points, &triangles[..end], DVec3::ZERO, |_| None) {
                 found = Some(e);
                 break;
             }
@@ -229,7 +272,63 @@ mod tests {
         );
         let boxed = Some((DVec3::splat(-1e6), DVec3::splat(1e6)));
         let mut guard = Guard::new(1.0, boxed, u64::MAX);
-        assert!(guard.check(&points, &triangles, DVec3::ZERO).is_ok());
+        assert!(
+            guard
+                .check(&points, &triangles, DVec3::ZERO, |_| None)
+                .is_ok()
+        );
+    }
+
+    /// The first check that fails, feeding `triangles` a thousand at a time.
+    fn first_failure(
+        points: &[DVec3],
+        triangles: &[[u32; 3]],
+        mut surface_point: impl FnMut(DVec3) -> Option<DVec3>,
+    ) -> Option<MarchError> {
+        let mut guard = Guard::new(1.0, None, u64::MAX);
+        (1000..=triangles.len()).step_by(1000).find_map(|end| {
+            guard
+                .check(points, &triangles[..end], points[0], &mut surface_point)
+                .err()
+        })
+    }
+
+    /// The disc bent onto a paraboloid (z = r²/40: neither flat nor a tube) is unbounded, and
+    /// onto a sphere of radius 150 (a cap 200 steps across, still growing by 1.3 per
+    /// doubling) is not: the probes land far out on the one and fall back onto the other.
+    #[test]
+    fn a_growing_curved_mesh_is_unbounded_only_where_the_surface_reaches_out() {
+        let (disc, triangles) = disc(300);
+        let paraboloid = |p: DVec3| DVec3::new(p.x, p.y, (p.x * p.x + p.y * p.y) / 40.0);
+        let points: Vec<DVec3> = disc.iter().map(|&p| paraboloid(p)).collect();
+        let found = first_failure(&points, &triangles, |q| Some(paraboloid(q)));
+        assert!(
+            matches!(found, Some(MarchError::Unbounded { .. })),
+            "{found:?}"
+        );
+
+        let radius = 150.0;
+        let centre = DVec3::new(0.0, 0.0, -radius);
+        // The disc's radius r becomes the arc length from the pole.
+        let sphere = |p: DVec3| {
+            let r = p.truncate().length();
+            if r == 0.0 {
+                return DVec3::ZERO;
+            }
+            let angle = r / radius;
+            let dir = p.truncate() / r;
+            centre + radius * DVec3::new(dir.x * angle.sin(), dir.y * angle.sin(), angle.cos())
+        };
+        let points: Vec<DVec3> = disc.iter().map(|&p| sphere(p)).collect();
+        let project = |q: DVec3| Some(centre + radius * (q - centre).normalize());
+        assert!(first_failure(&points, &triangles, project).is_none());
+        // Without the probes the sphere's cap would be taken for a paraboloid.
+        let mut probed = false;
+        first_failure(&points, &triangles, |q| {
+            probed = true;
+            project(q)
+        });
+        assert!(probed, "the growth checks never asked the surface");
     }
 
     #[test]
@@ -239,7 +338,7 @@ mod tests {
         let triangles = vec![[0, 1, 2]; 5000];
         let mut guard = Guard::new(1.0, None, u64::MAX);
         assert!(matches!(
-            guard.check(&points, &triangles, DVec3::ZERO),
+            guard.check(&points, &triangles, DVec3::ZERO, |_| None),
             Err(MarchError::Overlapping {
                 triangles: 5000,
                 ..

@@ -666,7 +666,12 @@ impl Marcher<'_> {
                     std::sync::atomic::Ordering::Relaxed,
                 );
             }
-            self.guard.check(&self.pos, &self.triangles, last_at)?;
+            let (surface, step, tolerance) = (&mut *self.surface, self.step, self.s.surface_point);
+            self.guard.check(&self.pos, &self.triangles, last_at, |q| {
+                surface_point(surface, q, step, &tolerance)
+                    .ok()
+                    .map(|sp| sp.point)
+            })?;
         }
     }
 
