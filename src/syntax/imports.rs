@@ -116,7 +116,7 @@ impl Loader {
                     span,
                     written,
                     &shown,
-                    &e.to_string(),
+                    &why(&e),
                 ));
                 return;
             }
@@ -155,7 +155,7 @@ impl Loader {
                     span,
                     written,
                     &shown,
-                    &e.to_string(),
+                    &why(&e),
                 ));
                 return;
             }
@@ -187,5 +187,14 @@ impl Loader {
                 .into_iter()
                 .filter(|i| !matches!(i.kind, ItemKind::Import { .. } | ItemKind::Mesh { .. })),
         );
+    }
+}
+
+/// Why a file cannot be read, in words that do not depend on the platform where they can.
+fn why(e: &std::io::Error) -> String {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => "no such file".to_string(),
+        std::io::ErrorKind::PermissionDenied => "permission denied".to_string(),
+        _ => e.to_string(),
     }
 }
