@@ -29,7 +29,8 @@ fn random_point(rng: &mut Rng, r: f64) -> DVec3 {
 
 /// The gradient by central differences.
 fn finite_gradient(s: &mut CompiledSurface, p: DVec3, h: f64) -> DVec3 {
-    let d = |s: &mut CompiledSurface, e: DVec3| (s.value(p + h * e) - s.value(p - h * e)) / (2.0 * h);
+    let d =
+        |s: &mut CompiledSurface, e: DVec3| (s.value(p + h * e) - s.value(p - h * e)) / (2.0 * h);
     DVec3::new(d(s, DVec3::X), d(s, DVec3::Y), d(s, DVec3::Z))
 }
 
@@ -54,7 +55,12 @@ fn difference_is_max_with_the_negated_others() {
     for _ in 0..2000 {
         let p = random_point(&mut rng, 2.0);
         let (a, b) = (named.value_gradient(p), raw.value_gradient(p));
-        assert!((a.value - b.value).abs() <= 1e-12, "{p}: {} vs {}", a.value, b.value);
+        assert!(
+            (a.value - b.value).abs() <= 1e-12,
+            "{p}: {} vs {}",
+            a.value,
+            b.value
+        );
         assert!((a.gradient - b.gradient).length() <= 1e-9, "{p}");
         // union = min of the parts; the box is the six face planes under max.
         let boxed = [-p.x, p.x - 1.0, -p.y, p.y - 1.0, -p.z, p.z - 1.0]
@@ -117,7 +123,10 @@ fn smooth_booleans_are_c1_and_sharp_far_from_the_blend() {
                 );
             }
         }
-        assert!(far > 50 && blended > 50, "{name}: {far} far, {blended} in the blend");
+        assert!(
+            far > 50 && blended > 50,
+            "{name}: {far} far, {blended} in the blend"
+        );
         // Across the edge of the blend (|gap| = r) the gradient does not jump: walk along the
         // line through both centres and compare the gradients just inside and just outside.
         let dir = DVec3::new(1.2, 0.3, 0.0).normalize();
@@ -125,7 +134,11 @@ fn smooth_booleans_are_c1_and_sharp_far_from_the_blend() {
         let mut prev: Option<(f64, DVec3)> = None;
         while t < 2.5 {
             let p = dir * t + DVec3::new(0.0, 0.0, 0.4);
-            let gap = if name == "sd" { a(p) + b(p) } else { a(p) - b(p) };
+            let gap = if name == "sd" {
+                a(p) + b(p)
+            } else {
+                a(p) - b(p)
+            };
             let g = s.value_gradient(p).gradient;
             if let Some((prev_gap, prev_g)) = prev {
                 if (prev_gap.abs() - r) * (gap.abs() - r) < 0.0 {
@@ -169,8 +182,14 @@ fn transforms_are_rigid_motions_and_scalings() {
         assert!((v.value - sphere_at(p, DVec3::new(0.0, 2.0, 0.0), 1.0)).abs() <= 1e-12);
         let want = (p - DVec3::new(0.0, 2.0, 0.0)).normalize();
         assert!((v.gradient - want).length() <= 1e-9, "{p}");
-        assert!((oblique.value(p) - boxed(q.inverse() * p)).abs() <= 1e-12, "{p}");
-        assert!((grown.value(p) - 1.5 * torus(p / 1.5)).abs() <= 1e-12, "{p}");
+        assert!(
+            (oblique.value(p) - boxed(q.inverse() * p)).abs() <= 1e-12,
+            "{p}"
+        );
+        assert!(
+            (grown.value(p) - 1.5 * torus(p / 1.5)).abs() <= 1e-12,
+            "{p}"
+        );
         let s = DVec3::new(2.0, 1.0, 0.5);
         assert!((squashed.value(p) - 0.5 * sphere_at(p / s, DVec3::ZERO, 1.0)).abs() <= 1e-12);
         assert!((from_fn.value(p) - sphere_at(p, DVec3::new(1.5, 0.0, 0.0), 0.5)).abs() <= 1e-12);
@@ -238,8 +257,8 @@ fn a_transformed_patch_has_moved_points() {
     );
     // The program holds the two transformed patches after the declared one.
     assert_eq!(program.patches.len(), 3, "{:?}", program.patches);
-    let mut patch =
-        surfc::compile::compile_patch(&program, surfc::sema::program::PatchId(2)).expect("compiles");
+    let mut patch = surfc::compile::compile_patch(&program, surfc::sema::program::PatchId(2))
+        .expect("compiles");
     use surfc::surface::Patch;
     let mut rng = Rng(9);
     for _ in 0..200 {
@@ -247,7 +266,11 @@ fn a_transformed_patch_has_moved_points() {
         let jet = patch.point_jacobian(u, v);
         // Turned a quarter about z, (u, v) → (−v, u), then lifted by 1.
         let want = DVec3::new(-v, u, u * v + 1.0);
-        assert!((jet.point - want).length() <= 1e-12, "{u}, {v}: {}", jet.point);
+        assert!(
+            (jet.point - want).length() <= 1e-12,
+            "{u}, {v}: {}",
+            jet.point
+        );
     }
     // And dist() of it measures from the moved patch: its point (−0.5, 0.5, 1.25) is on it.
     let mut s = surface(&program, "near_roof");

@@ -19,7 +19,10 @@ fn obj_vertices(path: &Path) -> Vec<[f64; 3]> {
     text.lines()
         .filter_map(|l| l.strip_prefix("v "))
         .map(|l| {
-            let v: Vec<f64> = l.split_whitespace().map(|t| t.parse().expect("a number")).collect();
+            let v: Vec<f64> = l
+                .split_whitespace()
+                .map(|t| t.parse().expect("a number"))
+                .collect();
             [v[0], v[1], v[2]]
         })
         .collect()
@@ -44,7 +47,10 @@ fn eval_of_a_turned_and_moved_sphere() {
         .map(|v| v.as_f64().expect("number"))
         .collect();
     assert!(value.abs() <= 1e-12, "value {value}");
-    assert!(g[0].abs() <= 1e-12 && (g[1] - 1.0).abs() <= 1e-12 && g[2].abs() <= 1e-12, "{g:?}");
+    assert!(
+        g[0].abs() <= 1e-12 && (g[1] - 1.0).abs() <= 1e-12 && g[2].abs() <= 1e-12,
+        "{g:?}"
+    );
 }
 
 /// A part in a subfolder that imports a file beside it, and a main file that imports the part.
@@ -88,7 +94,10 @@ fn import_from_a_subfolder_works_from_any_directory() {
         assert!(json(&run.stdout)["value"].as_f64().expect("value").abs() <= 1e-12);
     }
     // Only the main file's mesh block is meshed; the imported one is not in scope.
-    let run = surfc(&["mesh", main, "--json", "--quiet", "-o", "out.obj"], &elsewhere);
+    let run = surfc(
+        &["mesh", main, "--json", "--quiet", "-o", "out.obj"],
+        &elsewhere,
+    );
     assert_eq!(run.code, 0, "{}", run.stderr);
     let report = json(&run.stdout);
     let meshes = report["meshes"].as_array().expect("meshes");
@@ -100,7 +109,11 @@ fn import_from_a_subfolder_works_from_any_directory() {
     std::fs::write(dir.join("parts/units.surf"), "const unit = sphere(1);\n").expect("write");
     let run = surfc(&["check", "--color", "never", main], &elsewhere);
     assert_eq!(run.code, 1);
-    assert!(run.stderr.contains("parts/units.surf:1:14"), "{}", run.stderr);
+    assert!(
+        run.stderr.contains("parts/units.surf:1:14"),
+        "{}",
+        run.stderr
+    );
 }
 
 #[test]
@@ -112,36 +125,91 @@ fn define_sets_a_constant_for_mesh_eval_check_and_render() {
          mesh m = s { step: 0.25; box: (-3, -3, -3) .. (3, 3, 3); }\n",
     )
     .expect("write");
-    let run = surfc(&["mesh", "ball.surf", "-D", "r=2", "--quiet", "-o", "ball.obj"], &dir);
+    let run = surfc(
+        &[
+            "mesh",
+            "ball.surf",
+            "-D",
+            "r=2",
+            "--quiet",
+            "-o",
+            "ball.obj",
+        ],
+        &dir,
+    );
     assert_eq!(run.code, 0, "{}", run.stderr);
     let v = obj_vertices(&dir.join("ball.obj"));
     assert!(v.len() > 100);
     let radius = |p: &[f64; 3]| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-    assert!(v.iter().all(|p| (radius(p) - 2.0).abs() <= 1e-9), "a vertex off the radius-2 sphere");
+    assert!(
+        v.iter().all(|p| (radius(p) - 2.0).abs() <= 1e-9),
+        "a vertex off the radius-2 sphere"
+    );
     // The extent is that of the radius-2 sphere along every axis (within a step).
     for k in 0..3 {
         let hi = v.iter().map(|p| p[k]).fold(f64::MIN, f64::max);
         let lo = v.iter().map(|p| p[k]).fold(f64::MAX, f64::min);
-        assert!(hi > 2.0 - 0.25 && lo < -2.0 + 0.25, "axis {k}: {lo} .. {hi}");
+        assert!(
+            hi > 2.0 - 0.25 && lo < -2.0 + 0.25,
+            "axis {k}: {lo} .. {hi}"
+        );
     }
-    let run = surfc(&["eval", "ball.surf", "s", "2", "0", "0", "-D", "r=2", "--json"], &dir);
+    let run = surfc(
+        &[
+            "eval",
+            "ball.surf",
+            "s",
+            "2",
+            "0",
+            "0",
+            "-D",
+            "r=2",
+            "--json",
+        ],
+        &dir,
+    );
     assert_eq!(run.code, 0, "{}", run.stderr);
     assert!(json(&run.stdout)["value"].as_f64().expect("value").abs() <= 1e-12);
-    let run = surfc(&["check", "ball.surf", "-D", "r=0.5", "-D", "h=-1e-3"], &dir);
+    let run = surfc(
+        &["check", "ball.surf", "-D", "r=0.5", "-D", "h=-1e-3"],
+        &dir,
+    );
     assert_eq!(run.code, 0, "{}", run.stderr);
-    let run = surfc(&["render", "ball.surf", "-D", "r=2", "-o", "ball.png", "--quiet"], &dir);
+    let run = surfc(
+        &[
+            "render",
+            "ball.surf",
+            "-D",
+            "r=2",
+            "-o",
+            "ball.png",
+            "--quiet",
+        ],
+        &dir,
+    );
     assert_eq!(run.code, 0, "{}", run.stderr);
     // An unknown name lists the file's constants (exit 1).
-    let run = surfc(&["check", "--color", "never", "ball.surf", "-D", "radius=2"], &dir);
+    let run = surfc(
+        &["check", "--color", "never", "ball.surf", "-D", "radius=2"],
+        &dir,
+    );
     assert_eq!(run.code, 1);
     assert!(run.stderr.contains("E0701"), "{}", run.stderr);
     assert!(run.stderr.contains("`r`, `h`"), "{}", run.stderr);
     // A surface is no constant.
-    let run = surfc(&["check", "--color", "never", "ball.surf", "-D", "s=2"], &dir);
+    let run = surfc(
+        &["check", "--color", "never", "ball.surf", "-D", "s=2"],
+        &dir,
+    );
     assert_eq!(run.code, 1);
     assert!(run.stderr.contains("`s` is a surface"), "{}", run.stderr);
     // A malformed value and a name given twice are usage errors (exit 2).
-    for bad in [["-D", "r=two"], ["-D", "r"], ["-D", "r=inf"], ["-D", "2r=1"]] {
+    for bad in [
+        ["-D", "r=two"],
+        ["-D", "r"],
+        ["-D", "r=inf"],
+        ["-D", "2r=1"],
+    ] {
         let run = surfc(&["check", "ball.surf", bad[0], bad[1]], &dir);
         assert_eq!(run.code, 2, "{bad:?}: {}", run.stderr);
         assert!(run.stderr.contains("NAME=VALUE"), "{}", run.stderr);
@@ -160,14 +228,20 @@ fn smooth_union_of_two_spheres_meshes_watertight() {
          mesh m = blob { step: 0.15; box: (-2, -2, -2) .. (3, 2, 2); }\n",
     )
     .expect("write");
-    let run = surfc(&["mesh", "blob.surf", "--json", "--quiet", "-o", "blob.obj"], &dir);
+    let run = surfc(
+        &["mesh", "blob.surf", "--json", "--quiet", "-o", "blob.obj"],
+        &dir,
+    );
     assert_eq!(run.code, 0, "{}", run.stderr);
     let m = &json(&run.stdout)["meshes"][0];
     assert_eq!(m["euler_characteristic"], 2, "{m}");
     assert_eq!(m["boundary_edges"], 0, "{m}");
     assert_eq!(m["non_manifold_edges"], 0, "{m}");
     assert_eq!(m["components"], 1, "{m}");
-    assert!(m["max_chord_error"].as_f64().expect("chord") <= 0.1 * 0.15, "{m}");
+    assert!(
+        m["max_chord_error"].as_f64().expect("chord") <= 0.1 * 0.15,
+        "{m}"
+    );
     // The extent along x: from the first sphere's left pole to the second's right one.
     let v = obj_vertices(&dir.join("blob.obj"));
     let lo = v.iter().map(|p| p[0]).fold(f64::MAX, f64::min);

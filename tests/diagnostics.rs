@@ -45,8 +45,7 @@ fn fixtures_render_their_diagnostics() {
             for l in &d.labels {
                 let f = &map.files()[map.locate(l.span.start)];
                 assert!(
-                    l.span.start <= l.span.end
-                        && (l.span.end - f.base) as usize <= f.text.len(),
+                    l.span.start <= l.span.end && (l.span.end - f.base) as usize <= f.text.len(),
                     "{name}: label outside its file"
                 );
             }
@@ -97,10 +96,11 @@ fn every_code_has_a_fixture() {
         .iter()
         .map(|(c, _)| *c)
         .filter(|c| {
-            !seen.contains(c) && ![
-                "E0010", "E0099", "E0601", "E0602", "E0603", "E0604", "E0108", "E0701",
-            ]
-            .contains(c)
+            !seen.contains(c)
+                && ![
+                    "E0010", "E0099", "E0601", "E0602", "E0603", "E0604", "E0108", "E0701",
+                ]
+                .contains(c)
         })
         .collect();
     assert!(missing.is_empty(), "codes without a fixture: {missing:?}");

@@ -112,12 +112,8 @@ impl Loader {
         let canonical = match std::fs::canonicalize(&joined) {
             Ok(p) => p,
             Err(e) => {
-                self.diagnostics.push(messages::import_unreadable(
-                    span,
-                    written,
-                    &shown,
-                    &why(&e),
-                ));
+                self.diagnostics
+                    .push(messages::import_unreadable(span, written, &shown, &why(&e)));
                 return;
             }
         };
@@ -151,12 +147,8 @@ impl Loader {
                 }
             },
             Err(e) => {
-                self.diagnostics.push(messages::import_unreadable(
-                    span,
-                    written,
-                    &shown,
-                    &why(&e),
-                ));
+                self.diagnostics
+                    .push(messages::import_unreadable(span, written, &shown, &why(&e)));
                 return;
             }
         };
@@ -196,5 +188,90 @@ fn why(e: &std::io::Error) -> String {
         std::io::ErrorKind::NotFound => "no such file".to_string(),
         std::io::ErrorKind::PermissionDenied => "permission denied".to_string(),
         _ => e.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh directory for one test.
+    fn scratch(what: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("surfc-imports-{what}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("a scratch directory");
+        dir
+    }
+
+    fn codes(parsed: &Parsed) -> Vec<&'static str> {
+        parsed.diagnostics.iter().map(|d| d.code).collect()
+    }
+
+    #[test]
+    fn a_chain_past_the_limit_is_reported_once() {
+        let dir = scratch("deep");
+        let n = MAX_IMPORT_DEPTH + 1;
+        for k in 0..n {
+            std::fs::write(
+                dir.join(format!("f{k}.surf")),
+                format!("import \"f{}.surf\";\nconst c{k} = {k};\n", k + 1),
+            )
+            .expect("write");
+        }
+        std::fs::write(dir.join(format!("f{n}.surf")), "const last = 1;\n").expect("write");
+        let root = dir.join("root.surf");
+        let text = "import \"f0.surf\";\n";
+        let parsed = parse_with_imports("root.surf", Some(&root), text);
+        assert_eq!(codes(&parsed), ["E0108"]);
+        // It points into the last file read, at its import.
+        let span = parsed.diagnostics[0].primary_span().expect("a span");
+        let file = &parsed.map.files()[parsed.map.locate(span.start)];
+        assert!(
+            file.name
+                .ends_with(&format!("f{}.surf", MAX_IMPORT_DEPTH - 1)),
+            "{}",
+            file.name
+        );
+    }
+
+    #[test]
+    fn a_file_imported_twice_is_read_once_and_a_self_import_is_a_cycle() {
+        let dir = scratch("diamond");
+        std::fs::write(dir.join("units.surf"), "const unit = 1;\n").expect("write");
+        std::fs::write(
+            dir.join("a.surf"),
+            "import \"units.surf\";\nconst a = unit;\n",
+        )
+        .expect("write");
+        std::fs::write(
+            dir.join("b.surf"),
+            "import \"units.surf\";\nconst b = unit;\n",
+        )
+        .expect("write");
+        let root = dir.join("root.surf");
+        let text = "import \"a.surf\";\nimport \"b.surf\";\nconst c = a + b;\n";
+        let parsed = parse_with_imports("root.surf", Some(&root), text);
+        assert!(parsed.diagnostics.is_empty(), "{:?}", parsed.diagnostics);
+        assert_eq!(parsed.map.files().len(), 4);
+        let names: Vec<&str> = parsed
+            .file
+            .as_ref()
+            .expect("parsed")
+            .items
+            .iter()
+            .map(|i| i.kind.name().name.as_str())
+            .collect();
+        assert_eq!(names, ["unit", "a", "b", "c"]);
+        // Everything imported lies past the root's text.
+        let file = parsed.file.as_ref().expect("parsed");
+        assert!(
+            file.items[..3]
+                .iter()
+                .all(|i| i.span.start >= parsed.imported_from)
+        );
+        std::fs::write(&root, "import \"root.surf\";\n").expect("write");
+        let parsed = parse_with_imports("root.surf", Some(&root), "import \"root.surf\";\n");
+        assert_eq!(codes(&parsed), ["E0107"]);
+        assert_eq!(parsed.diagnostics[0].labels.len(), 1);
     }
 }
