@@ -246,6 +246,6 @@ fn smooth_union_of_two_spheres_meshes_watertight() {
     let v = obj_vertices(&dir.join("blob.obj"));
     let lo = v.iter().map(|p| p[0]).fold(f64::MAX, f64::min);
     let hi = v.iter().map(|p| p[0]).fold(f64::MIN, f64::max);
-    assert!(lo < -1.0 + 0.15 && lo >= -1.0 - 1e-9, "{lo}");
-    assert!(hi > 2.3 - 0.15 && hi <= 2.3 + 1e-9, "{hi}");
+    assert!((-1.0 - 1e-9..-1.0 + 0.15).contains(&lo), "{lo}");
+    assert!(hi > 2.3 - 0.15 && hi - 2.3 <= 1e-9, "{hi}");
 }

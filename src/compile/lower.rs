@@ -36,13 +36,17 @@ pub enum Domain {
     Patch,
 }
 
+/// A memoised call: the function, its argument nodes, and the x, y, z it sees (`None`: the
+/// inputs).
+type CallKey = (FnId, Vec<NodeId>, Option<[NodeId; 3]>);
+
 /// The lowering of expressions of one program into one graph.
 pub struct Lowerer<'p> {
     program: &'p Program,
     domain: Domain,
     pub graph: Graph,
     /// Memoised calls: the function, its argument nodes and the point it is evaluated at.
-    calls: HashMap<(FnId, Vec<NodeId>, Option<[NodeId; 3]>), NodeId>,
+    calls: HashMap<CallKey, NodeId>,
     surfaces: HashMap<(SurfaceId, Option<[NodeId; 3]>), NodeId>,
     /// The nodes x, y, z stand for inside an `At` (a transform); `None`: the inputs.
     coords: Option<[NodeId; 3]>,

@@ -96,8 +96,8 @@ impl Build {
     fn add(&self, a: Expr, b: Expr) -> Expr {
         match (as_number(&a), as_number(&b)) {
             (Some(x), Some(y)) => self.num(x + y),
-            (Some(x), None) if x == 0.0 => b,
-            (None, Some(y)) if y == 0.0 => a,
+            (Some(0.0), None) => b,
+            (None, Some(0.0)) => a,
             _ => self.bin(BinaryOp::Add, a, b),
         }
     }
@@ -105,8 +105,8 @@ impl Build {
     fn sub(&self, a: Expr, b: Expr) -> Expr {
         match (as_number(&a), as_number(&b)) {
             (Some(x), Some(y)) => self.num(x - y),
-            (None, Some(y)) if y == 0.0 => a,
-            (Some(x), None) if x == 0.0 => self.neg(b),
+            (None, Some(0.0)) => a,
+            (Some(0.0), None) => self.neg(b),
             _ => self.bin(BinaryOp::Sub, a, b),
         }
     }
@@ -117,10 +117,10 @@ impl Build {
         match (as_number(&a), as_number(&b)) {
             (Some(x), Some(y)) => self.num(x * y),
             (Some(x), _) | (_, Some(x)) if x == 0.0 => self.num(0.0),
-            (Some(x), None) if x == 1.0 => b,
-            (None, Some(y)) if y == 1.0 => a,
-            (Some(x), None) if x == -1.0 => self.neg(b),
-            (None, Some(y)) if y == -1.0 => self.neg(a),
+            (Some(1.0), None) => b,
+            (None, Some(1.0)) => a,
+            (Some(-1.0), None) => self.neg(b),
+            (None, Some(-1.0)) => self.neg(a),
             _ => self.bin(BinaryOp::Mul, a, b),
         }
     }
@@ -128,7 +128,7 @@ impl Build {
     fn div(&self, a: Expr, b: Expr) -> Expr {
         match (as_number(&a), as_number(&b)) {
             (Some(x), Some(y)) => self.num(x / y),
-            (None, Some(y)) if y == 1.0 => a,
+            (None, Some(1.0)) => a,
             _ => self.bin(BinaryOp::Div, a, b),
         }
     }
@@ -359,6 +359,31 @@ impl Checker<'_> {
         }
     }
 
+    /// An expression lowered with its compile-time value folded in; None if lowering reported
+    /// an error (`cx.failed` then stays set).
+    fn lower_folded(&mut self, e: &ast::Expr, cx: &mut Ctx<'_>) -> Option<Expr> {
+        let failed = std::mem::replace(&mut cx.failed, false);
+        let v = self.lower(e, cx);
+        let bad = cx.failed;
+        cx.failed |= failed;
+        (!bad).then(|| self.folded(v))
+    }
+
+    /// A constant vector made unit length; a zero one is reported (E0408).
+    fn unit_vector(&mut self, e: &ast::Expr, name: &str, what: &str, noun: &str) -> Option<DVec3> {
+        let v = self.point(e, what)?;
+        let unit = v.try_normalize();
+        if unit.is_none() {
+            self.diags.push(messages::bad_solid_parameter(
+                e.span,
+                name,
+                &format!("{noun} is zero"),
+                signature(name),
+            ));
+        }
+        unit
+    }
+
     /// A size that must be positive where it is known at compile time.
     fn positive(
         &mut self,
@@ -367,14 +392,7 @@ impl Checker<'_> {
         what: &str,
         cx: &mut Ctx<'_>,
     ) -> Option<Expr> {
-        let failed = std::mem::replace(&mut cx.failed, false);
-        let v = self.lower(e, cx);
-        let v = self.folded(v);
-        let bad = cx.failed;
-        cx.failed |= failed;
-        if bad {
-            return None;
-        }
+        let v = self.lower_folded(e, cx)?;
         if as_number(&v).is_some_and(|v| v <= 0.0) {
             self.diags.push(messages::bad_solid_parameter(
                 e.span,
@@ -391,17 +409,9 @@ impl Checker<'_> {
     fn vector(&mut self, e: &ast::Expr, cx: &mut Ctx<'_>) -> Option<[Expr; 3]> {
         match &e.kind {
             ast::ExprKind::Tuple(parts) if parts.len() == 3 => {
-                let failed = std::mem::replace(&mut cx.failed, false);
-                let v: Vec<Expr> = parts
-                    .iter()
-                    .map(|p| {
-                        let l = self.lower(p, cx);
-                        self.folded(l)
-                    })
-                    .collect();
-                let bad = cx.failed;
-                cx.failed |= failed;
-                (!bad).then(|| std::array::from_fn(|k| v[k].clone()))
+                let v: Vec<Option<Expr>> = parts.iter().map(|p| self.lower_folded(p, cx)).collect();
+                let [a, b, c] = <[Option<Expr>; 3]>::try_from(v).ok()?;
+                Some([a?, b?, c?])
             }
             ast::ExprKind::Tuple(parts) => {
                 self.diags
@@ -468,29 +478,9 @@ impl Checker<'_> {
         let sig = signature(name);
         if name == "rotate" {
             let (pos, named, _) = self.curve_args(name, sig, args, span, 1, &["axis", "angle"])?;
-            let axis = self.point(named[0], "the rotation axis")?;
-            let len = axis.length();
-            if !(len > 0.0) || !(axis / len).is_finite() {
-                self.diags.push(messages::bad_solid_parameter(
-                    named[0].span,
-                    name,
-                    "the axis is zero",
-                    sig,
-                ));
-                return None;
-            }
-            let failed = std::mem::replace(&mut cx.failed, false);
-            let angle = self.lower(named[1], cx);
-            let angle = self.folded(angle);
-            let bad = cx.failed;
-            cx.failed |= failed;
-            return (!bad).then_some((
-                pos[0],
-                Transform::Rotate {
-                    axis: axis / len,
-                    angle,
-                },
-            ));
+            let axis = self.unit_vector(named[0], name, "the rotation axis", "the axis");
+            let angle = self.lower_folded(named[1], cx)?;
+            return Some((pos[0], Transform::Rotate { axis: axis?, angle }));
         }
         self.solid_arity(name, args, span, 2, cx)?;
         let arg = &args[1].value;
@@ -710,27 +700,14 @@ impl Checker<'_> {
                 b.sub(hypot(b.sub(hypot(x, y), big), z), small)
             }
             _ => {
-                let n = self.point(&args[0].value, "the normal of the plane");
-                let failed = std::mem::replace(&mut cx.failed, false);
-                let offset = self.lower(&args[1].value, cx);
-                let offset = self.folded(offset);
-                let bad = cx.failed;
-                cx.failed |= failed;
+                let n = self.unit_vector(
+                    &args[0].value,
+                    name,
+                    "the normal of the plane",
+                    "the normal",
+                );
+                let offset = self.lower_folded(&args[1].value, cx)?;
                 let n = n?;
-                if bad {
-                    return None;
-                }
-                let len = n.length();
-                if !(len > 0.0) || !(n / len).is_finite() {
-                    self.diags.push(messages::bad_solid_parameter(
-                        args[0].value.span,
-                        name,
-                        "the normal is zero",
-                        signature(name),
-                    ));
-                    return None;
-                }
-                let n = n / len;
                 let dot = b.add(
                     b.add(b.mul(b.num(n.x), x), b.mul(b.num(n.y), y)),
                     b.mul(b.num(n.z), z),
