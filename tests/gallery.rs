@@ -288,6 +288,19 @@ fn engines_mesh_the_gallery_alike() {
     }
 }
 
+/// Panics with the violations if mesh `m` of example `path` fails its checks.
+fn assert_passes(path: &Path, m: &Meshed) {
+    let stem = path.file_stem().unwrap().to_string_lossy();
+    let bad = violations(&stem, m);
+    assert!(
+        bad.is_empty(),
+        "{}: mesh `{}` fails its checks:\n{}",
+        path.display(),
+        m.name,
+        bad.join("\n")
+    );
+}
+
 #[test]
 fn gallery() {
     insta::glob!("../examples", "*.surf", |path| {
@@ -297,15 +310,7 @@ fn gallery() {
         let (source, meshed) = mesh_example(path);
         let mut report = String::new();
         for m in &meshed {
-            let stem = path.file_stem().unwrap().to_string_lossy();
-            let bad = violations(&stem, m);
-            assert!(
-                bad.is_empty(),
-                "{}: mesh `{}` fails its checks:\n{}",
-                path.display(),
-                m.name,
-                bad.join("\n")
-            );
+            assert_passes(path, m);
             report.push_str(&summary(m));
         }
         let mut snapshot = String::new();
@@ -327,16 +332,8 @@ fn awaiting_creases_mesh_right_or_fail() {
         let source = std::fs::read_to_string(&path).unwrap();
         match mesh_source(&source) {
             Ok(meshed) => {
-                let stem = path.file_stem().unwrap().to_string_lossy();
                 for m in &meshed {
-                    let bad = violations(&stem, m);
-                    assert!(
-                        bad.is_empty(),
-                        "{}: mesh `{}` reported as success but fails its checks:\n{}",
-                        path.display(),
-                        m.name,
-                        bad.join("\n")
-                    );
+                    assert_passes(&path, m);
                 }
                 println!(
                     "{} meshes right now: remove its `{AWAITING_CREASES}` line",

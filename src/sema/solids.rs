@@ -229,29 +229,20 @@ impl Transform {
         })
     }
 
-    /// Where a point of the original goes (for a patch's points).
-    fn forward(&self, b: &Build, p: [Expr; 3]) -> [Expr; 3] {
-        match self {
-            Transform::Translate(d) => std::array::from_fn(|i| b.add(p[i].clone(), d[i].clone())),
-            Transform::Rotate { axis, angle } => {
-                b.affine(&Transform::rotation(b, *axis, angle, false), &p, None)
+    /// Where a point p of the original goes (for a patch's points), or, if `inverse`, where
+    /// the original is evaluated for the point p of the result (for a surface).
+    fn map(&self, b: &Build, p: [Expr; 3], inverse: bool) -> [Expr; 3] {
+        let each = |d: &[Expr; 3], op: fn(&Build, Expr, Expr) -> Expr| {
+            std::array::from_fn(|i| op(b, p[i].clone(), d[i].clone()))
+        };
+        match (self, inverse) {
+            (Transform::Translate(d), false) => each(d, Build::add),
+            (Transform::Translate(d), true) => each(d, Build::sub),
+            (Transform::Rotate { axis, angle }, _) => {
+                b.affine(&Transform::rotation(b, *axis, angle, inverse), &p, None)
             }
-            Transform::Scale { factors, .. } => {
-                std::array::from_fn(|i| b.mul(p[i].clone(), factors[i].clone()))
-            }
-        }
-    }
-
-    /// Where the original is evaluated for the point p of the result (for a surface).
-    fn inverse(&self, b: &Build, p: [Expr; 3]) -> [Expr; 3] {
-        match self {
-            Transform::Translate(d) => std::array::from_fn(|i| b.sub(p[i].clone(), d[i].clone())),
-            Transform::Rotate { axis, angle } => {
-                b.affine(&Transform::rotation(b, *axis, angle, true), &p, None)
-            }
-            Transform::Scale { factors, .. } => {
-                std::array::from_fn(|i| b.div(p[i].clone(), factors[i].clone()))
-            }
+            (Transform::Scale { factors, .. }, false) => each(factors, Build::mul),
+            (Transform::Scale { factors, .. }, true) => each(factors, Build::div),
         }
     }
 
@@ -530,7 +521,7 @@ impl Checker<'_> {
             return None;
         }
         let b = Build { span };
-        let point = t.inverse(&b, b.coords());
+        let point = t.map(&b, b.coords(), true);
         let at = b.expr(ExprKind::At(Box::new(inner), Box::new(point)));
         Some(match t.value_factor(&b) {
             Some(f) => b.mul(at, f),
@@ -614,7 +605,7 @@ impl Checker<'_> {
             return Some(base);
         };
         let b = Build { span: e.span };
-        let body = t.forward(&b, def.body.clone());
+        let body = t.map(&b, def.body.clone(), false);
         self.patches.push(Some(PatchDef {
             name: format!("{name}({})", def.name),
             span: e.span,
