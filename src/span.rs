@@ -72,6 +72,15 @@ impl SourceMap {
         Some(base)
     }
 
+    /// The same files with the root file (the first) called `name`.
+    pub fn with_root_name(&self, name: &str) -> SourceMap {
+        let mut map = self.clone();
+        if let Some(root) = map.files.first_mut() {
+            root.name = name.to_string();
+        }
+        map
+    }
+
     pub fn files(&self) -> &[SourceFile] {
         &self.files
     }

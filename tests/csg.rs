@@ -277,3 +277,17 @@ fn a_transformed_patch_has_moved_points() {
     let on = DVec3::new(-0.5, 0.5, 1.25);
     assert!((s.value(on) + 0.1).abs() <= 1e-6, "{}", s.value(on));
 }
+
+#[test]
+fn library_errors_render_into_the_imported_file() {
+    let dir = std::env::temp_dir().join(format!("surfc-csg-api-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("a scratch directory");
+    let part = dir.join("part.surf");
+    std::fs::write(&part, "// a part\nsurface part = spehre(1);\n").expect("write");
+    let source = format!("import \"{}\";\nsurface s = part;\n", part.display());
+    let errors = surfc::check(&source).expect_err("the part has a typo");
+    assert_eq!(errors.diagnostics[0].code, "E0101");
+    let text = errors.render("main.surf");
+    assert!(text.contains("part.surf:2:16"), "{text}");
+    assert!(text.contains("did you mean `sphere`?"), "{text}");
+}

@@ -87,10 +87,9 @@ pub(crate) fn read(path: &Path, color: ColorMode) -> Result<String, u8> {
 }
 
 /// Parses and checks source text (its imports relative to the current directory); returns
-/// the AST, the program (if the file parsed) and every diagnostic.
-pub(crate) fn analyse(source: &str) -> (Option<(ast::File, Program)>, Vec<Diagnostic>) {
-    let (_, checked, diags) = analyse_file(STDIN_NAME, None, source, &[]);
-    (checked, diags)
+/// every file read, the AST and the program (if the file parsed) and every diagnostic.
+pub(crate) fn analyse(source: &str) -> (SourceMap, Option<(ast::File, Program)>, Vec<Diagnostic>) {
+    analyse_file(STDIN_NAME, None, source, &[])
 }
 
 /// Parses `source` (named `name`, read from `path` if it is a file) with the files it

@@ -356,7 +356,7 @@ pub fn mesh_source(source: &str) -> Result<Vec<Meshed>, Vec<Diagnostic>> {
 
 /// [`mesh_source`] with the surfaces evaluated by `engine`.
 pub fn mesh_source_with(source: &str, engine: Engine) -> Result<Vec<Meshed>, Vec<Diagnostic>> {
-    let (checked, diags) = super::load::analyse(source);
+    let (_, checked, diags) = super::load::analyse(source);
     match checked {
         Some((_, program)) if !diag::has_errors(&diags) => {
             mesh_checked(&program, source, engine).map_err(|d| vec![d])
