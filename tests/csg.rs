@@ -272,6 +272,20 @@ fn a_transformed_patch_has_moved_points() {
             jet.point
         );
     }
+    // The boundary of a transformed patch is that of the new patch.
+    let rimmed = checked(
+        "patch roof(u: 0..1, v: 0..1) = (u, v, u * v);
+         curve rim = boundary(scale(roof, 2));
+         surface s = dist(roof);
+         mesh m = s { step: 0.1; front: rim; }",
+    );
+    assert_eq!(
+        rimmed.curves[0].kind,
+        surfc::sema::program::CurveKind::Boundary(surfc::sema::program::PatchId(1))
+    );
+    let mut scaled =
+        surfc::compile::compile_patch(&rimmed, surfc::sema::program::PatchId(1)).expect("compiles");
+    assert!((scaled.point_jacobian(1.0, 1.0).point - DVec3::new(2.0, 2.0, 2.0)).length() <= 1e-12);
     // And dist() of it measures from the moved patch: its point (−0.5, 0.5, 1.25) is on it.
     let mut s = surface(&program, "near_roof");
     let on = DVec3::new(-0.5, 0.5, 1.25);

@@ -380,6 +380,11 @@ impl<'f> Checker<'f> {
                         .push(messages::unknown_name(p.span, n, s.as_deref()));
                     return None;
                 }
+                // A moved, turned or scaled patch: the boundary of the transformed patch.
+                let mut cx = Ctx::new(Place::Number, &[], owner);
+                if let Some(id) = self.transformed_patch(p, &mut cx) {
+                    return (!cx.failed).then_some(CurveKind::Boundary(id));
+                }
                 self.diags.push(messages::expected_patch(p.span, None));
                 None
             }
