@@ -515,8 +515,19 @@ pub fn unexpected_named_argument(
         .help(format!("the signature is `{signature}`"))
 }
 
-pub fn positional_where_named(span: Span, callee: &str, signature: &str) -> Diagnostic {
-    Diagnostic::error("E0303", format!("`{callee}` takes named arguments only"))
+/// An argument without a name past the `positional` ones a call takes.
+pub fn positional_where_named(
+    span: Span,
+    callee: &str,
+    positional: usize,
+    signature: &str,
+) -> Diagnostic {
+    let message = match positional {
+        0 => format!("`{callee}` takes named arguments only"),
+        1 => format!("`{callee}` takes 1 argument without a name, then named ones"),
+        n => format!("`{callee}` takes {n} arguments without a name, then named ones"),
+    };
+    Diagnostic::error("E0303", message)
         .primary(span, "this argument has no name")
         .help(format!("the signature is `{signature}`"))
 }

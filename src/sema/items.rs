@@ -209,6 +209,7 @@ impl<'f> Checker<'f> {
                         self.diags.push(messages::positional_where_named(
                             a.value.span,
                             callee,
+                            positional,
                             sig,
                         ));
                         ok = false;
