@@ -255,9 +255,9 @@ fn a_transformed_patch_has_moved_points() {
         "patch roof(u: 0..1, v: 0..1) = (u, v, u * v);
          surface near_roof = dist(translate(rotate(roof, axis: (0, 0, 1), angle: pi / 2), (0, 0, 1))) - 0.1;",
     );
-    // The program holds the two transformed patches after the declared one.
-    assert_eq!(program.patches.len(), 3, "{:?}", program.patches);
-    let mut patch = surfc::compile::compile_patch(&program, surfc::sema::program::PatchId(2))
+    // The program holds the transformed patch (both transforms composed) after the declared one.
+    assert_eq!(program.patches.len(), 2, "{:?}", program.patches);
+    let mut patch = surfc::compile::compile_patch(&program, surfc::sema::program::PatchId(1))
         .expect("compiles");
     use surfc::surface::Patch;
     let mut rng = Rng(9);
@@ -304,4 +304,34 @@ fn library_errors_render_into_the_imported_file() {
     let text = errors.render("main.surf");
     assert!(text.contains("part.surf:2:16"), "{text}");
     assert!(text.contains("did you mean `sphere`?"), "{text}");
+}
+
+/// Nested smooth booleans and nested turns of a patch cost in proportion to their depth: the
+/// smooth minimum is one shared function and a patch's transforms are composed into one map
+/// (written out, each level would copy its operands two or three times).
+#[test]
+fn nested_solids_stay_small() {
+    let mut solid = "sphere(1)".to_string();
+    let mut turned = "roof".to_string();
+    for k in 0..40 {
+        solid = format!("smooth_union({solid}, translate(sphere(0.5), ({k}, 0, 0)), 0.1)");
+        turned = format!("rotate({turned}, axis: (1, 2, 3), angle: 0.1)");
+    }
+    let source = format!(
+        "patch roof(u: 0..1, v: 0..1) = (u, v, u * v);\nsurface s = {solid};\nsurface d = dist({turned}) - 0.1;\n"
+    );
+    let started = std::time::Instant::now();
+    let program = checked(&source);
+    let mut s = surface(&program, "s");
+    let mut d = surface(&program, "d");
+    assert!(s.value(DVec3::new(0.3, 0.2, 0.1)).is_finite());
+    assert!(d.value(DVec3::new(0.3, 0.2, 0.1)).is_finite());
+    assert!(
+        started.elapsed().as_secs_f64() < 5.0,
+        "{:?}",
+        started.elapsed()
+    );
+    // 40 unions of 41 spheres: a few operations each, not 3^40.
+    let n = s.tape().instrs().len();
+    assert!(n < 2000, "{n} instructions");
 }

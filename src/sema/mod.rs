@@ -135,6 +135,8 @@ pub(crate) struct Checker<'f> {
     pub by_kind: BTreeMap<(u8, u32), usize>,
     /// Constant values set with `-D`, by declaration index.
     pub defines: BTreeMap<usize, f64>,
+    /// The built-in function the smooth booleans call (made at the first one).
+    pub smin: Option<FnId>,
 }
 
 impl<'f> Checker<'f> {
@@ -152,6 +154,7 @@ impl<'f> Checker<'f> {
             meshes: Vec::new(),
             by_kind: BTreeMap::new(),
             defines: BTreeMap::new(),
+            smin: None,
         }
     }
 

@@ -7,7 +7,7 @@
 
 use std::collections::HashSet;
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 use crate::diag::messages;
 use crate::span::Span;
@@ -229,20 +229,38 @@ impl Transform {
         })
     }
 
-    /// Where a point p of the original goes (for a patch's points), or, if `inverse`, where
-    /// the original is evaluated for the point p of the result (for a surface).
-    fn map(&self, b: &Build, p: [Expr; 3], inverse: bool) -> [Expr; 3] {
+    /// Where the original is evaluated for the point p of the result (for a surface).
+    fn inverse(&self, b: &Build, p: [Expr; 3]) -> [Expr; 3] {
         let each = |d: &[Expr; 3], op: fn(&Build, Expr, Expr) -> Expr| {
             std::array::from_fn(|i| op(b, p[i].clone(), d[i].clone()))
         };
-        match (self, inverse) {
-            (Transform::Translate(d), false) => each(d, Build::add),
-            (Transform::Translate(d), true) => each(d, Build::sub),
-            (Transform::Rotate { axis, angle }, _) => {
-                b.affine(&Transform::rotation(b, *axis, angle, inverse), &p, None)
+        match self {
+            Transform::Translate(d) => each(d, Build::sub),
+            Transform::Rotate { axis, angle } => {
+                b.affine(&Transform::rotation(b, *axis, angle, true), &p, None)
             }
-            (Transform::Scale { factors, .. }, false) => each(factors, Build::mul),
-            (Transform::Scale { factors, .. }, true) => each(factors, Build::div),
+            Transform::Scale { factors, .. } => each(factors, Build::div),
+        }
+    }
+
+    /// The forward map p ↦ m·p + t when every argument is a number.
+    fn numbers(&self) -> Option<(DMat3, DVec3)> {
+        let vector = |v: &[Expr; 3]| -> Option<DVec3> {
+            Some(DVec3::new(
+                as_number(&v[0])?,
+                as_number(&v[1])?,
+                as_number(&v[2])?,
+            ))
+        };
+        match self {
+            Transform::Translate(d) => Some((DMat3::IDENTITY, vector(d)?)),
+            Transform::Rotate { axis, angle } => Some((
+                DMat3::from_axis_angle(*axis, as_number(angle)?),
+                DVec3::ZERO,
+            )),
+            Transform::Scale { factors, .. } => {
+                Some((DMat3::from_diagonal(vector(factors)?), DVec3::ZERO))
+            }
         }
     }
 
@@ -449,13 +467,39 @@ impl Checker<'_> {
         let s2 = self.lower(&args[1].value, cx);
         let r = self.positive(&args[2].value, name, "the rounding radius", cx)?;
         let b = Build { span };
+        // A call, not the formula: the formula uses each operand several times, and nested
+        // smooth booleans written out would grow exponentially; the compiler inlines the call
+        // with each operand lowered once.
+        let smin = self.smin_fn();
+        let call = |a: Expr, c: Expr| b.expr(ExprKind::Call(smin, vec![a, c, r.clone()]));
         Some(match name {
-            "smooth_union" => b.smin(s1, s2, r),
+            "smooth_union" => call(s1, s2),
             // smooth_intersection(a, b) = −smin(−a, −b)
-            "smooth_intersection" => b.neg(b.smin(b.neg(s1), b.neg(s2), r)),
+            "smooth_intersection" => b.neg(call(b.neg(s1), b.neg(s2))),
             // smooth_difference(a, b) = smooth_intersection(a, −b) = −smin(−a, b)
-            _ => b.neg(b.smin(b.neg(s1), s2, r)),
+            _ => b.neg(call(b.neg(s1), s2)),
         })
+    }
+
+    /// The function `smin(a, b, r)` of the smooth booleans, added to the program once.
+    fn smin_fn(&mut self) -> FnId {
+        if let Some(id) = self.smin {
+            return id;
+        }
+        let b = Build {
+            span: Span::default(),
+        };
+        let param = |k: u32| b.expr(ExprKind::Param(k));
+        self.functions.push(Some(FnDef {
+            name: "smooth_union".to_string(),
+            span: Span::default(),
+            params: ["a", "b", "r"].map(String::from).to_vec(),
+            body: b.smin(param(0), param(1), param(2)),
+            uses_coordinates: false,
+        }));
+        let id = FnId((self.functions.len() - 1) as u32);
+        self.smin = Some(id);
+        id
     }
 
     /// The target and the transform of a `translate`, `rotate` or `scale` call.
@@ -521,7 +565,7 @@ impl Checker<'_> {
             return None;
         }
         let b = Build { span };
-        let point = t.map(&b, b.coords(), true);
+        let point = t.inverse(&b, b.coords());
         let at = b.expr(ExprKind::At(Box::new(inner), Box::new(point)));
         Some(match t.value_factor(&b) {
             Some(f) => b.mul(at, f),
@@ -572,6 +616,34 @@ impl Checker<'_> {
     /// The transform's arguments are then constants (a patch body has no coordinates and
     /// no function parameters).
     pub(crate) fn transformed_patch(&mut self, e: &ast::Expr, cx: &mut Ctx<'_>) -> Option<PatchId> {
+        let (base, m, t) = self.patch_chain(e, cx)?;
+        let Some(def) = self.patches.get(base.index()).cloned().flatten() else {
+            return Some(base);
+        };
+        if cx.failed {
+            return Some(base);
+        }
+        // The transforms composed into one affine map, applied once: applied one by one,
+        // each turn would copy the body three times.
+        let b = Build { span: e.span };
+        let num = |v: f64| b.num(if v.abs() < ROTATION_ZERO { 0.0 } else { v });
+        let rows: [[Expr; 3]; 3] =
+            std::array::from_fn(|i| std::array::from_fn(|j| num(m.col(j)[i])));
+        let shift = t.to_array().map(num);
+        let body = b.affine(&rows, &def.body, Some(&shift));
+        self.patches.push(Some(PatchDef {
+            name: format!("{}(…)", def.name),
+            span: e.span,
+            body,
+            ..def
+        }));
+        Some(PatchId((self.patches.len() - 1) as u32))
+    }
+
+    /// A chain of transforms around a declared patch: the patch and the composed map
+    /// p ↦ m·p + t. None if `e` is no such chain; a chain with a wrong argument sets
+    /// `cx.failed` (the error is reported).
+    fn patch_chain(&mut self, e: &ast::Expr, cx: &mut Ctx<'_>) -> Option<(PatchId, DMat3, DVec3)> {
         let ast::ExprKind::Call { callee, args } = &e.kind else {
             return None;
         };
@@ -580,39 +652,40 @@ impl Checker<'_> {
             return None;
         }
         let target = &args.first().filter(|a| a.name.is_none())?.value;
-        let base = match &target.kind {
+        let (base, m, t) = match &target.kind {
             ast::ExprKind::Name(n) if !cx.params.contains(&n.as_str()) => {
                 let d = *self.globals.get(n.as_str())?;
                 if self.decls[d].kind != Kind::Patch {
                     return None;
                 }
                 self.mark_used(d, cx);
-                PatchId(self.decls[d].id)
+                (PatchId(self.decls[d].id), DMat3::IDENTITY, DVec3::ZERO)
             }
-            ast::ExprKind::Call { .. } => self.transformed_patch(target, cx)?,
+            ast::ExprKind::Call { .. } => self.patch_chain(target, cx)?,
             _ => return None,
         };
         let mut constant = Ctx::new(Place::Number, &[], cx.owner);
-        let Some((_, t)) = self.transform_args(name, args, e.span, &mut constant) else {
-            cx.failed = true;
-            return Some(base);
-        };
-        if constant.failed {
-            cx.failed = true;
-            return Some(base);
+        let numbers = self
+            .transform_args(name, args, e.span, &mut constant)
+            .filter(|_| !constant.failed)
+            .map(|(_, transform)| transform.numbers());
+        match numbers {
+            Some(Some((m2, t2))) => Some((base, m2 * m, m2 * t + t2)),
+            Some(None) => {
+                self.diags.push(messages::bad_solid_parameter(
+                    e.span,
+                    name,
+                    "a transform of a patch needs finite constant arguments",
+                    signature(name),
+                ));
+                cx.failed = true;
+                Some((base, m, t))
+            }
+            None => {
+                cx.failed = true;
+                Some((base, m, t))
+            }
         }
-        let Some(def) = self.patches.get(base.index()).cloned().flatten() else {
-            return Some(base);
-        };
-        let b = Build { span: e.span };
-        let body = t.map(&b, def.body.clone(), false);
-        self.patches.push(Some(PatchDef {
-            name: format!("{name}({})", def.name),
-            span: e.span,
-            body,
-            ..def
-        }));
-        Some(PatchId((self.patches.len() - 1) as u32))
     }
 
     fn primitive(
