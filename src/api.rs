@@ -11,6 +11,7 @@ use crate::cli::build::Builder;
 use crate::diag;
 use crate::eval::Engine;
 use crate::sema::program::{Program, SurfaceId, SurfaceRef};
+use crate::span::SourceMap;
 use crate::surface::Surface;
 use crate::surface::compiled::CompiledSurface;
 
@@ -21,12 +22,12 @@ pub use crate::mesh::write::Format;
 pub use crate::mesh::{Mesh, NamedMesh};
 
 /// A source with errors, or a mesh that could not be completed: every diagnostic, and the
-/// source they point into.
+/// source (with the files it imports) they point into.
 #[derive(Clone, Debug)]
 pub struct Errors {
     /// The diagnostics, errors and warnings, in the order they were found.
     pub diagnostics: Vec<Diagnostic>,
-    source: String,
+    files: SourceMap,
 }
 
 impl Errors {
@@ -39,7 +40,11 @@ impl Errors {
     /// assert!(text.contains("bad.surf:1:17"), "{text}");
     /// ```
     pub fn render(&self, file_name: &str) -> String {
-        diag::render(&self.diagnostics, file_name, &self.source, false)
+        diag::render_map(
+            &self.diagnostics,
+            &self.files.with_root_name(file_name),
+            false,
+        )
     }
 }
 
@@ -66,11 +71,13 @@ impl std::error::Error for Errors {}
 #[derive(Debug)]
 pub struct Checked {
     source: String,
+    files: SourceMap,
     program: Program,
     warnings: Vec<Diagnostic>,
 }
 
-/// Parses and checks a `.surf` source: the checked program, or every diagnostic of it.
+/// Parses and checks a `.surf` source: the checked program, or every diagnostic of it. Its
+/// `import`s are read relative to the current directory.
 ///
 /// ```
 /// let checked = surfc::check("surface ball = x^2 + y^2 + z^2 - 1;")?;
@@ -81,17 +88,15 @@ pub struct Checked {
 /// # Ok::<(), surfc::Errors>(())
 /// ```
 pub fn check(source: &str) -> Result<Checked, Errors> {
-    let (checked, diagnostics) = crate::cli::load::analyse(source);
+    let (files, checked, diagnostics) = crate::cli::load::analyse(source);
     match checked {
         Some((_, program)) if !diag::has_errors(&diagnostics) => Ok(Checked {
             source: source.to_owned(),
+            files,
             program,
             warnings: diagnostics,
         }),
-        _ => Err(Errors {
-            diagnostics,
-            source: source.to_owned(),
-        }),
+        _ => Err(Errors { diagnostics, files }),
     }
 }
 
@@ -159,7 +164,7 @@ impl Checked {
     pub fn mesh(&self) -> Result<Vec<Meshed>, Errors> {
         crate::cli::mesh::mesh_source(&self.source).map_err(|diagnostics| Errors {
             diagnostics,
-            source: self.source.clone(),
+            files: self.files.clone(),
         })
     }
 }

@@ -6,41 +6,73 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use surfc::diag::{self, Diagnostic, messages::CODES};
+use surfc::span::SourceMap;
 use surfc::{sema, syntax};
 
-fn diagnose(bytes: &[u8]) -> (String, Vec<Diagnostic>) {
-    let source = match syntax::source_text(bytes) {
+/// The diagnostics of the fixture at `path` (named `name`), its imports followed as
+/// `surfc check` follows them; the map of every file read.
+fn diagnose(path: &Path, name: &str) -> (SourceMap, Vec<Diagnostic>) {
+    let bytes = std::fs::read(path).expect("fixture is readable");
+    let source = match syntax::source_text(&bytes) {
         Ok(s) => s.to_string(),
-        Err(d) => return (String::from_utf8_lossy(bytes).into_owned(), vec![d]),
+        Err(d) => {
+            let lossy = String::from_utf8_lossy(&bytes).into_owned();
+            return (SourceMap::single(name, &lossy), vec![d]);
+        }
     };
-    let (file, mut diags) = syntax::parse(&source);
-    if let Some(file) = file {
-        let (_, more) = sema::check(&file);
+    let parsed = syntax::imports::parse_with_imports(name, Some(path), &source);
+    let mut diags = parsed.diagnostics;
+    if let Some(file) = parsed.file {
+        let options = sema::Options {
+            imported_from: Some(parsed.imported_from),
+            ..sema::Options::default()
+        };
+        let (_, more) = sema::check_with(&file, &options);
         diags.extend(more);
     }
-    (source, diags)
+    (parsed.map, diags)
 }
 
 #[test]
 fn fixtures_render_their_diagnostics() {
     insta::glob!("fixtures/errors/*.surf", |path| {
-        let bytes = std::fs::read(path).expect("fixture is readable");
-        let (source, diags) = diagnose(&bytes);
         let name = path
             .file_name()
             .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let (map, diags) = diagnose(path, &name);
         assert!(diag::has_errors(&diags), "{name}: no error reported");
         for d in &diags {
             for l in &d.labels {
+                let f = &map.files()[map.locate(l.span.start)];
                 assert!(
-                    l.span.start <= l.span.end && (l.span.end as usize) <= source.len(),
-                    "{name}: label outside the source"
+                    l.span.start <= l.span.end && (l.span.end - f.base) as usize <= f.text.len(),
+                    "{name}: label outside its file"
                 );
             }
         }
-        let rendered = diag::render(&diags, &name, &source, false);
-        insta::assert_snapshot!(format!("--- source\n{source}--- diagnostics\n{rendered}"));
+        let rendered = diag::render_map(&diags, &map, false);
+        // The root file's source, then that of each imported file (their diagnostics point
+        // into them).
+        let mut sources = String::new();
+        for f in map.files() {
+            if !sources.is_empty() {
+                sources.push_str(&format!("--- imported {}\n", imported_name(&f.name)));
+            }
+            sources.push_str(&f.text);
+        }
+        let rendered = rendered.replace(&fixtures_dir(), "");
+        insta::assert_snapshot!(format!("--- source\n{sources}--- diagnostics\n{rendered}"));
     });
+}
+
+/// The fixtures' directory with a trailing `/`: removed from the names of imported files in
+/// snapshots, which must not depend on where the repository is.
+fn fixtures_dir() -> String {
+    format!("{}/tests/fixtures/errors/", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn imported_name(name: &str) -> String {
+    name.replace(&fixtures_dir(), "")
 }
 
 /// Every error code a user can meet appears in some fixture.
@@ -50,17 +82,25 @@ fn every_code_has_a_fixture() {
     let mut seen = std::collections::BTreeSet::new();
     for entry in std::fs::read_dir(&dir).expect("fixtures dir") {
         let path = entry.expect("entry").path();
-        let (_, diags) = diagnose(&std::fs::read(&path).expect("readable"));
+        if path.extension().is_none_or(|e| e != "surf") {
+            continue;
+        }
+        let (_, diags) = diagnose(&path, "fixture");
         seen.extend(diags.iter().map(|d| d.code));
     }
     // E0010 needs more than a screenful of errors, E0099 is a bug of ours; E0601 and E0602
     // arise only when meshing (tests/mesh_cli.rs), E0603 and E0604 when compiling
-    // (tests/bounded_work.rs).
+    // (tests/bounded_work.rs); E0108 needs 65 files (src/syntax/imports.rs tests it), E0701
+    // a `-D` on the command line (tests/csg_cli.rs).
     let missing: Vec<&str> = CODES
         .iter()
         .map(|(c, _)| *c)
         .filter(|c| {
-            !seen.contains(c) && !["E0010", "E0099", "E0601", "E0602", "E0603", "E0604"].contains(c)
+            !seen.contains(c)
+                && ![
+                    "E0010", "E0099", "E0601", "E0602", "E0603", "E0604", "E0108", "E0701",
+                ]
+                .contains(c)
         })
         .collect();
     assert!(missing.is_empty(), "codes without a fixture: {missing:?}");

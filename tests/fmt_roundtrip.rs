@@ -88,3 +88,23 @@ fn ast_dumps() {
         insta::assert_snapshot!(name, format!("--- source\n{source}--- ast\n{dump}"));
     }
 }
+
+/// `import` and the solids: the canonical form written out by hand, reached from a messy one
+/// and kept by a second pass.
+#[test]
+fn formatting_imports_and_solids() {
+    let messy = "import   \"parts/plate.surf\" ;\n\
+                 surface s=difference( box((-1,-1,-0.1),(1,1,0.1)),translate(cylinder(0.2,1),(0.5,0,0)) );\n\
+                 surface t = rotate(smooth_union(sphere(1),torus(2,0.3),0.2),axis:(0,0,1),angle:pi/2);\n";
+    let canonical = "import \"parts/plate.surf\";\n\
+                     surface s = difference(box((-1, -1, -0.1), (1, 1, 0.1)), translate(cylinder(0.2, 1), (0.5, 0, 0)));\n\
+                     surface t = rotate(smooth_union(sphere(1), torus(2, 0.3), 0.2), axis: (0, 0, 1), angle: pi / 2);\n";
+    let ast = parse(messy, "messy");
+    let formatted = syntax::format(&ast);
+    assert_eq!(formatted, canonical);
+    assert_eq!(
+        syntax::sexpr(&parse(&formatted, "formatted")),
+        syntax::sexpr(&ast)
+    );
+    assert_eq!(syntax::format(&parse(&formatted, "again")), formatted);
+}

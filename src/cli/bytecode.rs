@@ -15,7 +15,12 @@ pub struct BytecodeArgs {
 }
 
 pub fn run(args: BytecodeArgs, color: ColorMode) -> u8 {
-    let (loaded, id) = match load_surface(&args.file, &args.surface, color) {
+    let (loaded, id) = match load_surface(
+        &args.file,
+        &args.surface,
+        color,
+        &super::load::DefineArgs::default(),
+    ) {
         Ok(found) => found,
         Err(failure) => return failure.exit,
     };

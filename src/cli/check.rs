@@ -15,12 +15,15 @@ pub struct CheckArgs {
     /// The .surf files to check.
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
+    /// Set a constant of the file: `-D NAME=VALUE` (repeatable).
+    #[command(flatten)]
+    pub defines: super::load::DefineArgs,
 }
 
 pub fn run(args: CheckArgs, color: ColorMode) -> u8 {
     let mut worst = 0;
     for path in &args.files {
-        let code = match super::load::load(path, color) {
+        let code = match super::load::load(path, color, &args.defines) {
             Ok(loaded) => check_limits(&loaded, color),
             Err(code) => code,
         };
@@ -42,12 +45,7 @@ fn check_limits(loaded: &Loaded, color: ColorMode) -> u8 {
         }
         if let Err(e) = compile::check_limits(program, &r, &mut Vec::new()) {
             if let Some(d) = super::build::limit_diagnostic(&e) {
-                diag::emit_stderr(
-                    &[d],
-                    &loaded.path.display().to_string(),
-                    &loaded.source,
-                    stderr_color(color),
-                );
+                diag::emit_stderr_map(&[d], &loaded.map, stderr_color(color));
                 return EXIT_INPUT;
             }
         }

@@ -27,6 +27,9 @@ pub struct EvalArgs {
     /// How surfaces are evaluated: machine code compiled from the tape, or the interpreter.
     #[arg(long, value_enum, default_value_t = EngineChoice::Native)]
     pub engine: EngineChoice,
+    /// Set a constant of the file: `-D NAME=VALUE` (repeatable).
+    #[command(flatten)]
+    pub defines: super::load::DefineArgs,
 }
 
 /// The id of the surface called `name`, or a failure (exit 1) listing the known surfaces.
@@ -52,8 +55,9 @@ pub(crate) fn load_surface(
     file: &Path,
     name: &str,
     color: ColorMode,
+    defines: &super::load::DefineArgs,
 ) -> Result<(Loaded, SurfaceId), Failure> {
-    let loaded = super::load::load_reported(file, color)?;
+    let loaded = super::load::load_reported(file, color, defines)?;
     let id = find_surface(&loaded.program, name, file)?;
     Ok((loaded, id))
 }
@@ -62,12 +66,7 @@ pub(crate) fn load_surface(
 /// limit the user reached, else a message.
 pub(crate) fn compile_failure(e: &CompileError, loaded: &Loaded, color: ColorMode) -> Failure {
     match super::build::limit_diagnostic(e) {
-        Some(d) => Failure::diagnostics(
-            &[d],
-            &super::load::input_name(&loaded.path),
-            &loaded.source,
-            super::load::stderr_color(color),
-        ),
+        Some(d) => Failure::diagnostics_map(&[d], &loaded.map, super::load::stderr_color(color)),
         None => Failure::new(
             EXIT_INPUT,
             CODE_INPUT,
@@ -78,7 +77,7 @@ pub(crate) fn compile_failure(e: &CompileError, loaded: &Loaded, color: ColorMod
 }
 
 pub fn run(args: EvalArgs, color: ColorMode) -> u8 {
-    let (loaded, id) = match load_surface(&args.file, &args.surface, color) {
+    let (loaded, id) = match load_surface(&args.file, &args.surface, color, &args.defines) {
         Ok(found) => found,
         Err(failure) => return failure.finish(args.json),
     };

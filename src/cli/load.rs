@@ -1,11 +1,13 @@
-//! Reading, parsing and checking one `.surf` file for a command: every diagnostic (warnings
-//! too) goes to stderr; the checked program comes back only if there is no error.
+//! Reading, parsing and checking one `.surf` file (with the files it imports) for a command,
+//! with the constants `-D NAME=VALUE` sets: every diagnostic (warnings too) goes to stderr;
+//! the checked program comes back only if there is no error.
 
 use std::io::{IsTerminal, Read};
 use std::path::{Path, PathBuf};
 
 use crate::diag::{self, Diagnostic};
 use crate::sema::{self, program::Program};
+use crate::span::SourceMap;
 use crate::syntax::{self, ast};
 
 use super::ColorMode;
@@ -17,7 +19,10 @@ use super::report::Failure;
 #[derive(Debug)]
 pub(crate) struct Loaded {
     pub path: PathBuf,
+    /// The root file's text.
     pub source: String,
+    /// The root file and the files it imports: what the program's spans point into.
+    pub map: SourceMap,
     pub ast: ast::File,
     pub program: Program,
 }
@@ -81,46 +86,114 @@ pub(crate) fn read(path: &Path, color: ColorMode) -> Result<String, u8> {
     read_source(path, color).map_err(|f| f.exit)
 }
 
-/// Parses and checks source text; returns the AST, the program (if the file parsed) and
-/// every diagnostic.
-pub(crate) fn analyse(source: &str) -> (Option<(ast::File, Program)>, Vec<Diagnostic>) {
-    let (file, mut diags) = syntax::parse(source);
-    let Some(file) = file else {
-        return (None, diags);
-    };
-    let (program, more) = sema::check(&file);
-    diags.extend(more);
-    (Some((file, program)), diags)
+/// Parses and checks source text (its imports relative to the current directory); returns
+/// every file read, the AST and the program (if the file parsed) and every diagnostic.
+pub(crate) fn analyse(source: &str) -> (SourceMap, Option<(ast::File, Program)>, Vec<Diagnostic>) {
+    analyse_file(STDIN_NAME, None, source, &[])
 }
 
-/// Reads, parses and checks `path` (`-`: standard input), printing every diagnostic to
-/// stderr. Err if the file cannot be read (exit 2) or has errors (exit 1).
-pub(crate) fn load_reported(path: &Path, color: ColorMode) -> Result<Loaded, Failure> {
+/// Parses `source` (named `name`, read from `path` if it is a file) with the files it
+/// imports, and checks it with the `-D` values `defines`: every file read, the AST and the
+/// program (if everything parsed), and every diagnostic.
+pub(crate) fn analyse_file(
+    name: &str,
+    path: Option<&Path>,
+    source: &str,
+    defines: &[(String, f64)],
+) -> (SourceMap, Option<(ast::File, Program)>, Vec<Diagnostic>) {
+    let parsed = syntax::imports::parse_with_imports(name, path, source);
+    let mut diags = parsed.diagnostics;
+    let Some(file) = parsed.file else {
+        return (parsed.map, None, diags);
+    };
+    let options = sema::Options {
+        defines: defines.to_vec(),
+        imported_from: Some(parsed.imported_from),
+    };
+    let (program, more) = sema::check_with(&file, &options);
+    diags.extend(more);
+    (parsed.map, Some((file, program)), diags)
+}
+
+/// `-D NAME=VALUE` (repeatable) of the commands that read a `.surf` file.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct DefineArgs {
+    /// Set the constant NAME of the file to the number VALUE (repeatable; each name once).
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+    pub define: Vec<(String, f64)>,
+}
+
+/// `NAME=VALUE` with a name as the language spells it and a finite decimal number.
+fn parse_define(text: &str) -> Result<(String, f64), String> {
+    let usage = "expected NAME=VALUE with a number VALUE, e.g. `-D r=2`";
+    let Some((name, value)) = text.split_once('=') else {
+        return Err(format!("`{text}`: no `=`; {usage}"));
+    };
+    let is_name = name
+        .chars()
+        .next()
+        .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+    if !is_name {
+        return Err(format!("`{name}` is not a name; {usage}"));
+    }
+    // Only what a number literal may hold (with a sign): no `inf`, `nan` or hex.
+    let numeric = value
+        .chars()
+        .all(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '+' | '-'));
+    match value.parse::<f64>() {
+        Ok(v) if numeric && v.is_finite() => Ok((name.to_string(), v)),
+        _ => Err(format!("`{value}` is not a finite number; {usage}")),
+    }
+}
+
+/// A `-D` name given twice is a usage error (exit 2): which of two values was meant is not
+/// for surfc to guess.
+fn check_defines(defines: &[(String, f64)], path: &Path) -> Result<(), Failure> {
+    for (k, (name, _)) in defines.iter().enumerate() {
+        if defines[..k].iter().any(|(n, _)| n == name) {
+            return Err(Failure::new(
+                super::EXIT_USAGE,
+                super::report::CODE_USAGE,
+                format!("`-D {name}=…` is given twice; give each constant once"),
+                Some(path),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Reads, parses and checks `path` (`-`: standard input) with its imports and the `-D`
+/// values, printing every diagnostic to stderr. Err if the file cannot be read or a `-D` is
+/// given twice (exit 2), or it has errors (exit 1).
+pub(crate) fn load_reported(
+    path: &Path,
+    color: ColorMode,
+    defines: &DefineArgs,
+) -> Result<Loaded, Failure> {
+    check_defines(&defines.define, path)?;
     let source = read_source(path, color)?;
-    let (checked, diags) = analyse(&source);
     let name = input_name(path);
+    let file = (!is_stdin(path)).then_some(path);
+    let (map, checked, diags) = analyse_file(&name, file, &source, &defines.define);
     match checked {
         Some((ast, program)) if !diag::has_errors(&diags) => {
             if !diags.is_empty() {
-                diag::emit_stderr(&diags, &name, &source, stderr_color(color));
+                diag::emit_stderr_map(&diags, &map, stderr_color(color));
             }
             Ok(Loaded {
                 path: path.to_path_buf(),
                 source,
+                map,
                 ast,
                 program,
             })
         }
-        _ => Err(Failure::diagnostics(
-            &diags,
-            &name,
-            &source,
-            stderr_color(color),
-        )),
+        _ => Err(Failure::diagnostics_map(&diags, &map, stderr_color(color))),
     }
 }
 
 /// [`load_reported`] for commands that need only the exit code.
-pub(crate) fn load(path: &Path, color: ColorMode) -> Result<Loaded, u8> {
-    load_reported(path, color).map_err(|f| f.exit)
+pub(crate) fn load(path: &Path, color: ColorMode, defines: &DefineArgs) -> Result<Loaded, u8> {
+    load_reported(path, color, defines).map_err(|f| f.exit)
 }

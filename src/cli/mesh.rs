@@ -84,6 +84,9 @@ pub struct MeshArgs {
     /// How surfaces are evaluated: machine code compiled from the tape, or the interpreter.
     #[arg(long, value_enum, default_value_t = EngineChoice::Native)]
     pub engine: EngineChoice,
+    /// Set a constant of the file: `-D NAME=VALUE` (repeatable).
+    #[command(flatten)]
+    pub defines: super::load::DefineArgs,
 }
 
 /// The `--json` report (DESIGN.md §3); structs keep the keys in the documented order.
@@ -187,7 +190,7 @@ fn choose_output(args: &MeshArgs) -> Result<(Output, Format), Failure> {
 fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
     let started = Instant::now();
     let (output, format) = choose_output(&args)?;
-    let loaded = load_reported(&args.file, color)?;
+    let loaded = load_reported(&args.file, color, &args.defines)?;
     let selected = select(&loaded, &args.only)?;
     // Before meshing, so that the user does not wait for a refusal (a FIFO is not opened).
     if let Output::File(path) = &output {
@@ -340,14 +343,8 @@ pub(crate) fn mesh_blocks(
     quiet: bool,
     engine: Engine,
 ) -> Result<Vec<Meshed>, Failure> {
-    mesh_program(&loaded.program, &loaded.source, blocks, quiet, engine).map_err(|d| {
-        Failure::diagnostics(
-            &[d],
-            &input_name(&loaded.path),
-            &loaded.source,
-            stderr_color(color),
-        )
-    })
+    mesh_program(&loaded.program, &loaded.source, blocks, quiet, engine)
+        .map_err(|d| Failure::diagnostics_map(&[d], &loaded.map, stderr_color(color)))
 }
 
 /// Parses, checks and meshes every mesh block of `source`: the library form of
@@ -359,7 +356,7 @@ pub fn mesh_source(source: &str) -> Result<Vec<Meshed>, Vec<Diagnostic>> {
 
 /// [`mesh_source`] with the surfaces evaluated by `engine`.
 pub fn mesh_source_with(source: &str, engine: Engine) -> Result<Vec<Meshed>, Vec<Diagnostic>> {
-    let (checked, diags) = super::load::analyse(source);
+    let (_, checked, diags) = super::load::analyse(source);
     match checked {
         Some((_, program)) if !diag::has_errors(&diags) => {
             mesh_checked(&program, source, engine).map_err(|d| vec![d])

@@ -35,6 +35,9 @@ pub struct RenderArgs {
     /// How surfaces are evaluated: machine code compiled from the tape, or the interpreter.
     #[arg(long, value_enum, default_value_t = EngineChoice::Native)]
     pub engine: EngineChoice,
+    /// Set a constant of the file: `-D NAME=VALUE` (repeatable).
+    #[command(flatten)]
+    pub defines: super::load::DefineArgs,
 }
 
 pub fn run(args: RenderArgs, color: ColorMode) -> u8 {
@@ -59,7 +62,7 @@ pub fn run(args: RenderArgs, color: ColorMode) -> u8 {
     if let Ok(format) = Format::from_path(&args.file) {
         return render_mesh_file(&args, format, &options);
     }
-    let loaded = match load(&args.file, color) {
+    let loaded = match load(&args.file, color, &args.defines) {
         Ok(l) => l,
         Err(code) => return code,
     };

@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use super::{EXIT_INPUT, EXIT_USAGE};
 use crate::diag::{self, Diagnostic, Severity};
+use crate::span::SourceMap;
 
 /// The `code` of an error that is not a diagnostic about the input: a usage error (exit 2).
 pub const CODE_USAGE: &str = "usage";
@@ -32,10 +33,17 @@ pub struct ErrorJson {
 
 impl ErrorJson {
     /// A diagnostic about `source` (read from `file`), placed at its primary label.
-    pub fn from_diagnostic(d: &Diagnostic, file: &str, source: &str) -> ErrorJson {
-        let place = d
-            .primary_span()
-            .map(|span| diag::line_column(source, span.start as usize));
+    pub fn from_diagnostic(d: &Diagnostic, map: &SourceMap) -> ErrorJson {
+        let located = d.primary_span().and_then(|span| {
+            let f = map.files().get(map.locate(span.start))?;
+            let place = diag::line_column(&f.text, (span.start - f.base) as usize);
+            Some((f.name.clone(), place))
+        });
+        let file = located
+            .as_ref()
+            .map(|(name, _)| name.clone())
+            .or_else(|| map.files().first().map(|f| f.name.clone()));
+        let place = located.map(|(_, place)| place);
         ErrorJson {
             code: d.code.to_owned(),
             severity: match d.severity {
@@ -43,7 +51,7 @@ impl ErrorJson {
                 Severity::Warning => "warning",
             },
             message: d.message.clone(),
-            file: Some(file.to_owned()),
+            file,
             line: place.map(|(line, _)| line),
             column: place.map(|(_, column)| column),
         }
@@ -86,12 +94,17 @@ impl Failure {
 
     /// Diagnostics about `source` (exit 1): printed on stderr, kept as JSON entries.
     pub fn diagnostics(diags: &[Diagnostic], file: &str, source: &str, color: bool) -> Failure {
-        diag::emit_stderr(diags, file, source, color);
+        Failure::diagnostics_map(diags, &SourceMap::single(file, source), color)
+    }
+
+    /// [`Failure::diagnostics`] of diagnostics whose spans point into several files.
+    pub fn diagnostics_map(diags: &[Diagnostic], map: &SourceMap, color: bool) -> Failure {
+        diag::emit_stderr_map(diags, map, color);
         Failure {
             exit: EXIT_INPUT,
             errors: diags
                 .iter()
-                .map(|d| ErrorJson::from_diagnostic(d, file, source))
+                .map(|d| ErrorJson::from_diagnostic(d, map))
                 .collect(),
         }
     }

@@ -1,8 +1,9 @@
 //! Lowering: the checked `Program`'s expression of one surface (or a patch's three
 //! coordinates) → nodes of the hash-consed [`Graph`]. Constants become numbers, `fn` calls are
 //! inlined (memoised on the function and its argument nodes, so nested repeated calls cost one
-//! body each), a named surface is replaced by its body (lowered once), and each distinct
-//! `dist` target becomes one `Dist` node.
+//! body each), a named surface is replaced by its body (lowered once per point it is evaluated
+//! at), each distinct `dist` target becomes one `Dist` node, and `At` (a transform) lowers its
+//! expression with x, y, z bound to the nodes of the transformed point.
 
 use std::collections::HashMap;
 
@@ -35,13 +36,20 @@ pub enum Domain {
     Patch,
 }
 
+/// A memoised call: the function, its argument nodes, and the x, y, z it sees (`None`: the
+/// inputs).
+type CallKey = (FnId, Vec<NodeId>, Option<[NodeId; 3]>);
+
 /// The lowering of expressions of one program into one graph.
 pub struct Lowerer<'p> {
     program: &'p Program,
     domain: Domain,
     pub graph: Graph,
-    calls: HashMap<(FnId, Vec<NodeId>), NodeId>,
-    surfaces: HashMap<SurfaceId, NodeId>,
+    /// Memoised calls: the function, its argument nodes and the point it is evaluated at.
+    calls: HashMap<CallKey, NodeId>,
+    surfaces: HashMap<(SurfaceId, Option<[NodeId; 3]>), NodeId>,
+    /// The nodes x, y, z stand for inside an `At` (a transform); `None`: the inputs.
+    coords: Option<[NodeId; 3]>,
     /// Functions and surfaces being lowered (a cycle check; sema forbids cycles, but a
     /// hand-built program must not overflow the stack).
     active_fns: Vec<FnId>,
@@ -61,6 +69,7 @@ impl<'p> Lowerer<'p> {
             graph: Graph::new(),
             calls: HashMap::new(),
             surfaces: HashMap::new(),
+            coords: None,
             active_fns: Vec::new(),
             call_spans: Vec::new(),
             active_surfaces: Vec::new(),
@@ -71,7 +80,7 @@ impl<'p> Lowerer<'p> {
 
     /// The body of surface `id`, lowered once.
     pub fn surface(&mut self, id: SurfaceId, span: Span) -> Result<NodeId, CompileError> {
-        if let Some(&n) = self.surfaces.get(&id) {
+        if let Some(&n) = self.surfaces.get(&(id, self.coords)) {
             return Ok(n);
         }
         let def = self
@@ -92,7 +101,7 @@ impl<'p> Lowerer<'p> {
         let n = self.expr(&def.body, &[]);
         self.active_surfaces.pop();
         let n = n?;
-        self.surfaces.insert(id, n);
+        self.surfaces.insert((id, self.coords), n);
         Ok(n)
     }
 
@@ -118,11 +127,15 @@ impl<'p> Lowerer<'p> {
                 if self.domain == Domain::Patch {
                     return Err(CompileError::CoordinatesInPatch { span });
                 }
-                self.graph.input(match axis {
+                let k = match axis {
                     Axis::X => 0,
                     Axis::Y => 1,
                     Axis::Z => 2,
-                })
+                };
+                match self.coords {
+                    Some(c) => c[k],
+                    None => self.graph.input(k as u8),
+                }
             }
             ExprKind::Param(i) => *params
                 .get(*i as usize)
@@ -188,7 +201,7 @@ impl<'p> Lowerer<'p> {
                 for arg in args {
                     nodes.push(self.expr(arg, params)?);
                 }
-                let key = (*id, nodes);
+                let key = (*id, nodes, self.coords);
                 if let Some(&n) = self.calls.get(&key) {
                     return Ok(n);
                 }
@@ -212,6 +225,9 @@ impl<'p> Lowerer<'p> {
                 if self.domain == Domain::Patch {
                     return Err(CompileError::CoordinatesInPatch { span });
                 }
+                if self.coords.is_some() {
+                    return Err(CompileError::DistInTransform { span });
+                }
                 let k = match self.dists.iter().position(|(t, _)| t == target) {
                     Some(k) => k,
                     None => {
@@ -220,6 +236,19 @@ impl<'p> Lowerer<'p> {
                     }
                 };
                 self.graph.dist(DistId(k as u32))
+            }
+            ExprKind::At(inner, point) => {
+                if self.domain == Domain::Patch {
+                    return Err(CompileError::CoordinatesInPatch { span });
+                }
+                let mut at = [NodeId(0); 3];
+                for (k, p) in point.iter().enumerate() {
+                    at[k] = self.expr(p, params)?;
+                }
+                let outer = self.coords.replace(at);
+                let n = self.expr(inner, params);
+                self.coords = outer;
+                n?
             }
         })
     }

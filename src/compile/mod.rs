@@ -41,6 +41,8 @@ pub enum CompileError {
     Cycle { name: String, span: Span },
     #[error("parameter {index} is used outside a function or patch that has it")]
     UnboundParam { index: u32, span: Span },
+    #[error("dist() cannot be evaluated at a transformed point")]
+    DistInTransform { span: Span },
     #[error("a patch body cannot use x, y, z, a surface or dist()")]
     CoordinatesInPatch { span: Span },
     #[error("patch `{name}` has no implicit value; use dist({name})")]

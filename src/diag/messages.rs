@@ -18,12 +18,16 @@ pub const CODES: &[(&str, &str)] = &[
     ("E0008", "expected a definition"),
     ("E0009", "the file is not UTF-8 text"),
     ("E0010", "too many errors; the rest are not shown"),
+    ("E0011", "unterminated string"),
     ("E0099", "internal error of the parser (a bug in surfc)"),
     ("E0101", "unknown name"),
     ("E0102", "duplicate definition"),
     ("E0103", "a built-in name redefined"),
     ("E0104", "recursive definition"),
     ("E0105", "duplicate parameter"),
+    ("E0106", "an imported file that cannot be read"),
+    ("E0107", "an import cycle"),
+    ("E0108", "imports nested deeper than the limit"),
     ("E0201", "a patch used as a value"),
     ("E0202", "a name of the wrong kind"),
     (
@@ -36,6 +40,11 @@ pub const CODES: &[(&str, &str)] = &[
     ("E0207", "a call of something that is not a function"),
     ("E0208", "a curve where a value is expected"),
     ("E0209", "a tuple where a number is expected"),
+    (
+        "E0210",
+        "the intersection curve and the intersection boolean mixed up",
+    ),
+    ("E0211", "a transform of an expression that uses `dist`"),
     ("E0301", "wrong number of arguments"),
     ("E0302", "missing named argument"),
     ("E0303", "unknown or misplaced named argument"),
@@ -49,6 +58,10 @@ pub const CODES: &[(&str, &str)] = &[
     (
         "E0407",
         "a circle with a non-positive radius or a zero normal",
+    ),
+    (
+        "E0408",
+        "a primitive, smooth boolean, rotation or scale with an invalid size",
     ),
     ("E0501", "unknown mesh option"),
     ("E0502", "duplicate mesh option"),
@@ -69,6 +82,10 @@ pub const CODES: &[(&str, &str)] = &[
     ),
     ("E0603", "a surface too large after inlining its functions"),
     ("E0604", "`dist` nested deeper than the limit"),
+    (
+        "E0701",
+        "`-D NAME=VALUE` for a name that is no constant of the file",
+    ),
     ("W0001", "unused definition"),
     ("W0002", "`start` ignored because `front` is given"),
 ];
@@ -498,8 +515,19 @@ pub fn unexpected_named_argument(
         .help(format!("the signature is `{signature}`"))
 }
 
-pub fn positional_where_named(span: Span, callee: &str, signature: &str) -> Diagnostic {
-    Diagnostic::error("E0303", format!("`{callee}` takes named arguments only"))
+/// An argument without a name past the `positional` ones a call takes.
+pub fn positional_where_named(
+    span: Span,
+    callee: &str,
+    positional: usize,
+    signature: &str,
+) -> Diagnostic {
+    let message = match positional {
+        0 => format!("`{callee}` takes named arguments only"),
+        1 => format!("`{callee}` takes 1 argument without a name, then named ones"),
+        n => format!("`{callee}` takes {n} arguments without a name, then named ones"),
+    };
+    Diagnostic::error("E0303", message)
         .primary(span, "this argument has no name")
         .help(format!("the signature is `{signature}`"))
 }
@@ -794,4 +822,95 @@ pub fn dist_too_deep(span: Span, limit: usize, chain: &[String]) -> Diagnostic {
     .primary(span, format!("level {} of {}", chain.len(), chain.join(" → ")))
     .note("each level of `dist` evaluates the one inside it tens of times per foot point, so the work grows about 30-fold a level")
     .help("measure the distance to the innermost surface once: `offset(S, a + b)` instead of `offset(offset(S, a), b)`")
+}
+
+/// `intersection(…, near: P)` in a surface, where `intersection` is the boolean.
+pub fn near_in_boolean(span: Span) -> Diagnostic {
+    Diagnostic::error(
+        "E0210",
+        "`near:` belongs to the intersection curve, not to the intersection boolean",
+    )
+    .primary(span, "in a surface, `intersection(…)` is the boolean (max)")
+    .help("to trace the curve where the surfaces meet, declare it: `curve NAME = intersection(S1, S2, near: P);`")
+}
+
+/// A boolean, primitive or transform (a surface) where a curve is declared.
+pub fn solid_in_curve(span: Span, name: &str) -> Diagnostic {
+    Diagnostic::error("E0210", format!("`{name}(…)` is a surface, not a curve"))
+        .primary(span, "a solid where a curve is expected")
+        .help(format!(
+            "declare it as a surface, `surface NAME = {name}(…);`; a curve on two surfaces is `intersection(S1, S2, near: P)`"
+        ))
+}
+
+/// `translate`, `rotate` or `scale` of an expression with a `dist` in it.
+pub fn dist_in_transform(span: Span, transform: &str) -> Diagnostic {
+    Diagnostic::error(
+        "E0211",
+        format!("`{transform}` of an expression that uses `dist` is not supported"),
+    )
+    .primary(
+        span,
+        "`dist` measures at the point the mesher asks for, not at a transformed one",
+    )
+    .help(format!(
+        "transform the surface inside instead: `dist({transform}(S, …))`"
+    ))
+}
+
+/// A primitive's size, a rounding radius, a rotation axis or a scale factor that is invalid.
+pub fn bad_solid_parameter(span: Span, callee: &str, what: &str, signature: &str) -> Diagnostic {
+    Diagnostic::error("E0408", format!("invalid `{callee}`: {what}"))
+        .primary(span, what.to_string())
+        .help(format!("the signature is `{signature}`"))
+}
+
+/// `-D NAME=…` where the file has no constant NAME (`kind`: what NAME is, if anything).
+pub fn unknown_define(name: &str, kind: Option<&str>, constants: &[&str]) -> Diagnostic {
+    let message = match kind {
+        Some(kind) => format!("`-D {name}=…`: `{name}` is {kind}, not a constant"),
+        None => format!("`-D {name}=…`: the file has no constant `{name}`"),
+    };
+    let help = if constants.is_empty() {
+        "the file declares no constants; `-D` sets a `const`".to_string()
+    } else {
+        let list: Vec<String> = constants.iter().map(|c| format!("`{c}`")).collect();
+        format!("the file's constants are {}", list.join(", "))
+    };
+    Diagnostic::error("E0701", message).help(help)
+}
+
+pub fn unterminated_string(span: Span) -> Diagnostic {
+    Diagnostic::error("E0011", "unterminated string")
+        .primary(span, "this string has no closing `\"` on its line")
+        .help("write a file name in quotes on one line: `import \"parts.surf\";`")
+}
+
+/// An `import` whose file cannot be read.
+pub fn import_unreadable(span: Span, written: &str, resolved: &str, why: &str) -> Diagnostic {
+    Diagnostic::error("E0106", format!("cannot import `{written}`: {why}"))
+        .primary(span, "this file cannot be read")
+        .note(format!("looked for `{resolved}`"))
+        .help("an import's path is relative to the file that imports it")
+}
+
+/// An `import` that closes a cycle; `other` is the import that started it.
+pub fn import_cycle(span: Span, written: &str, other: Option<Span>) -> Diagnostic {
+    let d = Diagnostic::error(
+        "E0107",
+        format!("import cycle: `{written}` is already being imported"),
+    )
+    .primary(span, format!("imports `{written}` again"));
+    match other {
+        Some(other) => d
+            .secondary(other, "the cycle starts with this import")
+            .help("move what both files need into a third file that both import"),
+        None => d.help("a file cannot import itself"),
+    }
+}
+
+/// Imports nested deeper than the limit.
+pub fn imports_too_deep(span: Span, limit: usize) -> Diagnostic {
+    Diagnostic::error("E0108", format!("imports nested deeper than {limit} files"))
+        .primary(span, "one import too many")
 }

@@ -8,10 +8,10 @@ pub mod messages;
 use std::io::Write;
 
 use codespan_reporting::diagnostic as cs;
-use codespan_reporting::files::SimpleFile;
+use codespan_reporting::files::SimpleFiles;
 use codespan_reporting::term::{self, termcolor};
 
-use crate::span::Span;
+use crate::span::{SourceMap, Span};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Severity {
@@ -139,9 +139,24 @@ fn locate(source: &str, offset: usize) -> (usize, usize, usize) {
     (line, column, line_end - line_start)
 }
 
-fn to_codespan(d: &Diagnostic, source: &str) -> cs::Diagnostic<()> {
-    let source_len = source.len();
-    let clamp = |s: Span| {
+/// A span in the map → its file's index and the span local to that file.
+fn local(map: &SourceMap, s: Span) -> (usize, Span) {
+    let k = map.locate(s.start);
+    let base = map.files().get(k).map_or(0, |f| f.base);
+    (
+        k,
+        Span {
+            start: s.start - base,
+            end: s.end.saturating_sub(base),
+        },
+    )
+}
+
+fn to_codespan(d: &Diagnostic, map: &SourceMap) -> cs::Diagnostic<usize> {
+    let text = |k: usize| map.files().get(k).map_or("", |f| f.text.as_str());
+    let clamp = |k: usize, s: Span| {
+        let source = text(k);
+        let source_len = source.len();
         let r = s.range();
         let end = r.end.min(source_len);
         let start = r.start.min(end);
@@ -164,7 +179,8 @@ fn to_codespan(d: &Diagnostic, source: &str) -> cs::Diagnostic<()> {
         .labels
         .iter()
         .filter(|l| {
-            let (line, column, len) = locate(source, l.span.start as usize);
+            let (k, s) = local(map, l.span);
+            let (line, column, len) = locate(text(k), s.start as usize);
             let quoted = len <= MAX_QUOTED_LINE;
             if !quoted {
                 long_line_notes.push(format!("at line {line}, column {column}: {}", l.message));
@@ -177,7 +193,8 @@ fn to_codespan(d: &Diagnostic, source: &str) -> cs::Diagnostic<()> {
             } else {
                 cs::LabelStyle::Secondary
             };
-            cs::Label::new(style, (), clamp(l.span)).with_message(l.message.clone())
+            let (k, s) = local(map, l.span);
+            cs::Label::new(style, k, clamp(k, s)).with_message(l.message.clone())
         })
         .collect();
     let mut notes = long_line_notes;
@@ -194,17 +211,27 @@ fn to_codespan(d: &Diagnostic, source: &str) -> cs::Diagnostic<()> {
 
 /// Renders diagnostics as text, with ANSI colours if `color`.
 pub fn render(diags: &[Diagnostic], file_name: &str, source: &str, color: bool) -> String {
+    render_map(diags, &SourceMap::single(file_name, source), color)
+}
+
+/// [`render`] of diagnostics whose spans point into several files.
+pub fn render_map(diags: &[Diagnostic], map: &SourceMap, color: bool) -> String {
     let mut buffer = if color {
         termcolor::Buffer::ansi()
     } else {
         termcolor::Buffer::no_color()
     };
-    write_to(&mut buffer, diags, file_name, source);
+    write_to(&mut buffer, diags, map);
     String::from_utf8_lossy(buffer.as_slice()).into_owned()
 }
 
 /// Prints diagnostics to stderr, coloured if `color`.
 pub fn emit_stderr(diags: &[Diagnostic], file_name: &str, source: &str, color: bool) {
+    emit_stderr_map(diags, &SourceMap::single(file_name, source), color)
+}
+
+/// [`emit_stderr`] of diagnostics whose spans point into several files.
+pub fn emit_stderr_map(diags: &[Diagnostic], map: &SourceMap, color: bool) {
     let choice = if color {
         termcolor::ColorChoice::Always
     } else {
@@ -212,21 +239,19 @@ pub fn emit_stderr(diags: &[Diagnostic], file_name: &str, source: &str, color: b
     };
     let stream = termcolor::StandardStream::stderr(choice);
     let mut lock = stream.lock();
-    write_to(&mut lock, diags, file_name, source);
+    write_to(&mut lock, diags, map);
     let _ = lock.flush();
 }
 
-fn write_to<W: termcolor::WriteColor>(
-    writer: &mut W,
-    diags: &[Diagnostic],
-    file_name: &str,
-    source: &str,
-) {
-    let file = SimpleFile::new(file_name, source);
+fn write_to<W: termcolor::WriteColor>(writer: &mut W, diags: &[Diagnostic], map: &SourceMap) {
+    let mut files = SimpleFiles::new();
+    for f in map.files() {
+        files.add(f.name.as_str(), f.text.as_str());
+    }
     let config = term::Config::default();
     for d in diags {
-        let cd = to_codespan(d, source);
-        if term::emit_to_write_style(writer, &config, &file, &cd).is_err() {
+        let cd = to_codespan(d, map);
+        if term::emit_to_write_style(writer, &config, &files, &cd).is_err() {
             // A span that codespan cannot place (never expected after clamping): print the
             // message alone rather than lose it.
             let _ = writeln!(writer, "{}[{}]: {}", severity_word(d), d.code, d.message);

@@ -92,10 +92,16 @@ impl Checker<'_> {
                 self.eval(&f.body, &values, depth + 1)?
             }
             // Sema never evaluates these (no coordinates where values are computed).
-            ExprKind::Coord(_) | ExprKind::Surface(_) | ExprKind::Dist(_) => {
+            ExprKind::Coord(_) | ExprKind::Surface(_) | ExprKind::Dist(_) | ExprKind::At(..) => {
                 return Err(NoValue::Broken);
             }
         })
+    }
+
+    /// The value of an already lowered expression if it is a compile-time constant (no
+    /// coordinates, parameters or broken dependencies), without reporting anything.
+    pub(crate) fn known(&self, e: &Expr) -> Option<f64> {
+        self.eval(e, &[], 0).ok().filter(|v| v.is_finite())
     }
 
     /// Lowers and evaluates a coordinate-free expression; reports a value that is infinite or

@@ -101,12 +101,12 @@ fn combinator_signature(name: &str) -> &'static str {
     }
 }
 
-fn count_words(n: usize) -> String {
+pub(crate) fn count_words(n: usize) -> String {
     format!("{n} argument{}", if n == 1 { "" } else { "s" })
 }
 
 impl<'f> Checker<'f> {
-    fn fail(&mut self, cx: &mut Ctx<'_>, d: crate::diag::Diagnostic) -> Expr {
+    pub(crate) fn fail(&mut self, cx: &mut Ctx<'_>, d: crate::diag::Diagnostic) -> Expr {
         self.diags.push(d);
         cx.failed = true;
         number(0.0, Span::default())
@@ -133,6 +133,7 @@ impl<'f> Checker<'f> {
     fn callable_names(&self) -> Vec<&str> {
         let mut names: Vec<&str> = Builtin::ALL.iter().map(|b| b.name()).collect();
         names.extend(COMBINATORS);
+        names.extend(super::solids::SOLIDS);
         names.extend(
             self.globals
                 .iter()
@@ -274,7 +275,7 @@ impl<'f> Checker<'f> {
     }
 
     /// Reports named arguments; returns false if there were any.
-    fn positional_only(
+    pub(crate) fn positional_only(
         &mut self,
         callee: &str,
         sig: &str,
@@ -373,6 +374,10 @@ impl<'f> Checker<'f> {
         if COMBINATORS.contains(&name) {
             return self.lower_combinator(name, args, span, cx);
         }
+        // Before the curve constructors: in an expression, `intersection` is the boolean.
+        if super::solids::SOLIDS.contains(&name) {
+            return self.lower_solid(name, args, span, cx);
+        }
         if CURVE_CONSTRUCTORS.contains(&name) {
             return self.fail(cx, messages::curve_as_value(span, &format!("`{name}(…)`")));
         }
@@ -463,6 +468,9 @@ impl<'f> Checker<'f> {
 
     /// Where a surface is expected: a named surface, a patch, or an anonymous expression.
     pub(crate) fn lower_surface_ref(&mut self, e: &ast::Expr, cx: &mut Ctx<'_>) -> SurfaceRef {
+        if let Some(p) = self.transformed_patch(e, cx) {
+            return SurfaceRef::Patch(p);
+        }
         if let ast::ExprKind::Name(n) = &e.kind {
             if !cx.params.contains(&n.as_str()) {
                 if let Some(&d) = self.globals.get(n.as_str()) {

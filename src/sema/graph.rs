@@ -32,7 +32,7 @@ pub(crate) fn dependencies(c: &Checker<'_>, d: usize) -> Vec<(usize, Span)> {
             let names: Vec<&str> = params.iter().map(|p| p.name.name.as_str()).collect();
             visit(body, &names);
         }
-        ast::ItemKind::Mesh { .. } => {}
+        ast::ItemKind::Mesh { .. } | ast::ItemKind::Import { .. } => {}
     }
     out
 }

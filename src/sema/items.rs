@@ -143,6 +143,13 @@ impl<'f> Checker<'f> {
 
     fn not_a_curve(&mut self, e: &ast::Expr) {
         match &e.kind {
+            ast::ExprKind::Call { callee, .. }
+                if super::solids::SOLIDS.contains(&callee.name.as_str())
+                    && !self.globals.contains_key(callee.name.as_str()) =>
+            {
+                self.diags
+                    .push(messages::solid_in_curve(e.span, &callee.name));
+            }
             ast::ExprKind::Name(n)
             | ast::ExprKind::Call {
                 callee: ast::Ident { name: n, .. },
@@ -174,7 +181,7 @@ impl<'f> Checker<'f> {
 
     /// Checks named and positional arguments against a curve constructor's signature.
     /// Returns the positional values and the named ones (in signature order), or None.
-    fn curve_args<'a>(
+    pub(crate) fn curve_args<'a>(
         &mut self,
         callee: &str,
         sig: &str,
@@ -202,6 +209,7 @@ impl<'f> Checker<'f> {
                         self.diags.push(messages::positional_where_named(
                             a.value.span,
                             callee,
+                            positional,
                             sig,
                         ));
                         ok = false;
@@ -372,6 +380,11 @@ impl<'f> Checker<'f> {
                     self.diags
                         .push(messages::unknown_name(p.span, n, s.as_deref()));
                     return None;
+                }
+                // A moved, turned or scaled patch: the boundary of the transformed patch.
+                let mut cx = Ctx::new(Place::Number, &[], owner);
+                if let Some(id) = self.transformed_patch(p, &mut cx) {
+                    return (!cx.failed).then_some(CurveKind::Boundary(id));
                 }
                 self.diags.push(messages::expected_patch(p.span, None));
                 None

@@ -11,6 +11,7 @@ mod expr;
 mod graph;
 mod items;
 pub mod program;
+mod solids;
 pub mod suggest;
 #[cfg(test)]
 mod tests;
@@ -25,14 +26,31 @@ use program::*;
 
 /// Checks a parsed file; see the module doc.
 pub fn check(file: &ast::File) -> (Program, Vec<Diagnostic>) {
+    check_with(file, &Options::default())
+}
+
+/// What the command line adds to a file: `-D NAME=VALUE` overrides and the extent of the
+/// root file among imported ones.
+#[derive(Clone, Debug, Default)]
+pub struct Options {
+    /// Constants set from the command line (each name once), replacing their definitions.
+    pub defines: Vec<(String, f64)>,
+    /// Items whose span starts at or past this offset come from imported files: they are a
+    /// library, and are not reported as unused. `None`: every item is the file's own.
+    pub imported_from: Option<u32>,
+}
+
+/// [`check`] with command-line overrides and imported items.
+pub fn check_with(file: &ast::File, options: &Options) -> (Program, Vec<Diagnostic>) {
     let mut c = Checker::new(file);
     c.declare();
+    c.apply_defines(options);
     let order = c.order();
     for d in order {
         c.lower_decl(d);
     }
     c.check_meshes();
-    c.warn_unused();
+    c.warn_unused(options.imported_from);
     c.finish()
 }
 
@@ -115,6 +133,10 @@ pub(crate) struct Checker<'f> {
     pub meshes: Vec<MeshDef>,
     /// Per declaration: the decl index for each kind's id, to find a decl from an id.
     pub by_kind: BTreeMap<(u8, u32), usize>,
+    /// Constant values set with `-D`, by declaration index.
+    pub defines: BTreeMap<usize, f64>,
+    /// The built-in function the smooth booleans call (made at the first one).
+    pub smin: Option<FnId>,
 }
 
 impl<'f> Checker<'f> {
@@ -131,6 +153,8 @@ impl<'f> Checker<'f> {
             curves: Vec::new(),
             meshes: Vec::new(),
             by_kind: BTreeMap::new(),
+            defines: BTreeMap::new(),
+            smin: None,
         }
     }
 
@@ -143,7 +167,7 @@ impl<'f> Checker<'f> {
                 ast::ItemKind::Surface { .. } => Kind::Surface,
                 ast::ItemKind::Patch { .. } => Kind::Patch,
                 ast::ItemKind::Curve { .. } => Kind::Curve,
-                ast::ItemKind::Mesh { .. } => continue,
+                ast::ItemKind::Mesh { .. } | ast::ItemKind::Import { .. } => continue,
             };
             let name = item.kind.name();
             if let Some(what) = reserved(&name.name) {
@@ -207,13 +231,41 @@ impl<'f> Checker<'f> {
         order
     }
 
+    /// Binds each `-D NAME=VALUE` to its constant; a name that is no constant is an error
+    /// that lists the constants there are.
+    fn apply_defines(&mut self, options: &Options) {
+        for (name, value) in &options.defines {
+            match self.globals.get(name.as_str()) {
+                Some(&d) if self.decls[d].kind == Kind::Const => {
+                    self.defines.insert(d, *value);
+                }
+                found => {
+                    let constants: Vec<&str> = self
+                        .decls
+                        .iter()
+                        .filter(|d| d.kind == Kind::Const)
+                        .map(|d| d.name.name.as_str())
+                        .collect();
+                    let kind = found.map(|&d| self.decls[d].kind.article());
+                    self.diags
+                        .push(messages::unknown_define(name, kind, &constants));
+                }
+            }
+        }
+    }
+
     fn lower_decl(&mut self, d: usize) {
         let item = self.decls[d].item;
         let id = self.decls[d].id;
         let name = self.decls[d].name;
         match &item.kind {
             ast::ItemKind::Const { value, .. } => {
+                // A `-D` value replaces the definition, which is still checked.
                 let v = self.const_value(value, d);
+                let v = match self.defines.get(&d) {
+                    Some(&defined) => Some(defined),
+                    None => v,
+                };
                 // Without a value, its users stay silent rather than see a placeholder.
                 if v.is_none() {
                     self.decls[d].broken = true;
@@ -259,7 +311,7 @@ impl<'f> Checker<'f> {
                     kind,
                 });
             }
-            ast::ItemKind::Mesh { .. } => {}
+            ast::ItemKind::Mesh { .. } | ast::ItemKind::Import { .. } => {}
         }
     }
 
@@ -284,8 +336,11 @@ impl<'f> Checker<'f> {
         self.diags.len() < MAX_DIAGNOSTICS
     }
 
-    fn warn_unused(&mut self) {
+    fn warn_unused(&mut self, imported_from: Option<u32>) {
         for d in &self.decls {
+            if imported_from.is_some_and(|from| d.item.span.start >= from) {
+                continue;
+            }
             let what = match d.kind {
                 // Surfaces are entry points (`surfc eval FILE SURFACE`), never unused.
                 Kind::Surface => continue,

@@ -1,7 +1,8 @@
 //! The checked program: what `sema` hands to the compiler and to the mesher. Names are
 //! resolved to typed ids; constants are evaluated; `offset`, `product` and `blend` are already
-//! rewritten into arithmetic over `Dist` nodes (DESIGN.md §2), so the only non-arithmetic
-//! node left is `Dist`. Functions stay separate definitions: the compiler inlines them into
+//! rewritten into arithmetic over `Dist` nodes (DESIGN.md §2), and the solids (booleans,
+//! primitives) into arithmetic and `min`/`max`, so the only non-arithmetic nodes left are
+//! `Dist` and `At` (an expression evaluated at a transformed point). Functions stay separate definitions: the compiler inlines them into
 //! a hash-consed IR, which keeps repeated calls shared.
 
 use glam::DVec3;
@@ -268,4 +269,9 @@ pub enum ExprKind {
     /// The oriented distance to a surface (numerical implicitization). `offset`, `product`
     /// and `blend` are rewritten by sema into arithmetic over this node.
     Dist(SurfaceRef),
+    /// The first expression evaluated at the point given by the three others (expressions of
+    /// the enclosing x, y, z): `translate`, `rotate` and `scale` evaluate a surface at the
+    /// inverse-transformed point. Sema never puts a `Dist` inside (a `dist` child is measured
+    /// at the point the mesher asks for, not at a transformed one).
+    At(Box<Expr>, Box<[Expr; 3]>),
 }

@@ -44,6 +44,13 @@ fn show(e: &Expr) -> String {
         }
         ExprKind::Surface(s) => format!("s{}", s.0),
         ExprKind::Dist(r) => format!("(dist {})", show_ref(r)),
+        ExprKind::At(e, p) => format!(
+            "(at {} {} {} {})",
+            show(e),
+            show(&p[0]),
+            show(&p[1]),
+            show(&p[2])
+        ),
     }
 }
 

@@ -40,6 +40,11 @@ pub struct Item {
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum ItemKind {
+    /// `import "path";`: `path.name` is the path as written between the quotes, its span
+    /// the string literal's.
+    Import {
+        path: Ident,
+    },
     Const {
         name: Ident,
         value: Expr,
@@ -74,7 +79,8 @@ pub enum ItemKind {
 impl ItemKind {
     pub fn name(&self) -> &Ident {
         match self {
-            ItemKind::Const { name, .. }
+            ItemKind::Import { path: name }
+            | ItemKind::Const { name, .. }
             | ItemKind::Fn { name, .. }
             | ItemKind::Surface { name, .. }
             | ItemKind::Patch { name, .. }
@@ -86,6 +92,7 @@ impl ItemKind {
     /// The keyword that introduces the statement.
     pub fn keyword(&self) -> &'static str {
         match self {
+            ItemKind::Import { .. } => "import",
             ItemKind::Const { .. } => "const",
             ItemKind::Fn { .. } => "fn",
             ItemKind::Surface { .. } => "surface",

@@ -101,6 +101,7 @@ fn assign<'c>(comments: &[&'c Comment], entries: &[Span]) -> Placed<'c> {
 
 fn item_text(item: &Item, comments: &[&Comment]) -> String {
     match &item.kind {
+        ItemKind::Import { path } => format!("import \"{}\";", path.name),
         ItemKind::Const { name, value } => definition(&format!("const {} = ", name.name), value),
         ItemKind::Surface { name, body } => definition(&format!("surface {} = ", name.name), body),
         ItemKind::Curve { name, value } => format!("curve {} = {};", name.name, expr(value)),

@@ -47,7 +47,8 @@ impl Lower {
         let mut inner = p.into_inner().filter(|c| {
             !matches!(
                 c.as_rule(),
-                Rule::kw_const
+                Rule::kw_import
+                    | Rule::kw_const
                     | Rule::kw_fn
                     | Rule::kw_surface
                     | Rule::kw_patch
@@ -63,6 +64,17 @@ impl Lower {
         });
         let mut next = || inner.next().ok_or_else(|| messages::internal_parse(span));
         let kind = match rule {
+            Rule::import_def => {
+                let s = next()?;
+                let quoted = self.span(&s);
+                let text = s.as_str();
+                ItemKind::Import {
+                    path: Ident {
+                        name: text[1..text.len() - 1].to_string(),
+                        span: quoted,
+                    },
+                }
+            }
             Rule::const_def => ItemKind::Const {
                 name: self.ident(next()?),
                 value: self.expr(next()?, 0)?.0,

@@ -9,6 +9,7 @@
 
 pub mod ast;
 mod format;
+pub mod imports;
 mod lower;
 mod scan;
 mod sexpr;
@@ -50,6 +51,28 @@ pub fn source_text(bytes: &[u8]) -> Result<&str, Diagnostic> {
 /// Parses a file. The AST is `Some` only if there is no syntax error; the diagnostics are
 /// every syntax error found (capped at `limits::MAX_SYNTAX_DIAGNOSTICS`).
 pub fn parse(source: &str) -> (Option<ast::File>, Vec<Diagnostic>) {
+    parse_at(source, 0)
+}
+
+/// [`parse`] of a file that starts at byte `base` of a [`crate::span::SourceMap`]: every span
+/// of the AST and the diagnostics is shifted by `base`.
+pub fn parse_at(source: &str, base: u32) -> (Option<ast::File>, Vec<Diagnostic>) {
+    let (file, mut diags) = parse_local(source, base as usize);
+    if base > 0 {
+        for d in &mut diags {
+            for l in &mut d.labels {
+                l.span = Span {
+                    start: l.span.start.saturating_add(base),
+                    end: l.span.end.saturating_add(base),
+                };
+            }
+        }
+    }
+    (file, diags)
+}
+
+/// The parse with AST spans shifted by `base` and diagnostics' spans local.
+fn parse_local(source: &str, base: usize) -> (Option<ast::File>, Vec<Diagnostic>) {
     let scanned = scan::scan(source);
     if !scanned.diagnostics.is_empty() {
         return (None, scanned.diagnostics);
@@ -76,13 +99,22 @@ pub fn parse(source: &str) -> (Option<ast::File>, Vec<Diagnostic>) {
                     break;
                 };
                 let end = pos + stmt.as_span().end();
-                let lower = lower::Lower { offset: pos };
+                let lower = lower::Lower { offset: base + pos };
                 match lower.statement(stmt) {
                     Ok(mut item) => {
                         item.blank_line_before = scan::blank_line_before(source, pos);
                         items.push(item);
                     }
-                    Err(d) => diags.push(d),
+                    Err(mut d) => {
+                        // Diagnostics stay local here; `parse_at` shifts them all.
+                        for l in &mut d.labels {
+                            l.span = Span::new(
+                                (l.span.start as usize).saturating_sub(base),
+                                (l.span.end as usize).saturating_sub(base),
+                            );
+                        }
+                        diags.push(d)
+                    }
                 }
                 pos = end.max(pos + 1);
             }
@@ -109,17 +141,18 @@ pub fn parse(source: &str) -> (Option<ast::File>, Vec<Diagnostic>) {
         diags.push(messages::suppressed(suppressed));
     }
     if diags.is_empty() {
-        let file = ast::File {
-            items,
-            comments: scanned.comments,
-        };
+        let mut comments = scanned.comments;
+        for c in &mut comments {
+            c.span = Span::new(c.span.start as usize + base, c.span.end as usize + base);
+        }
+        let file = ast::File { items, comments };
         (Some(file), diags)
     } else {
         (None, diags)
     }
 }
 
-const KEYWORDS: [&str; 6] = ["const", "fn", "surface", "patch", "curve", "mesh"];
+const KEYWORDS: [&str; 7] = ["import", "const", "fn", "surface", "patch", "curve", "mesh"];
 
 /// The keyword at the start of the statement at `start`, if it is one.
 fn statement_keyword(src: &str, start: usize) -> Option<&'static str> {
@@ -146,7 +179,9 @@ fn describe(rule: Rule) -> Option<&'static str> {
         Rule::ident => "a name",
         Rule::patch_param => "a parameter such as `u: 0..1`",
         Rule::mesh_option => "a mesh option such as `step: 0.1;`",
-        Rule::kw_const
+        Rule::string => "a file name in quotes, such as `\"parts.surf\"`",
+        Rule::kw_import
+        | Rule::kw_const
         | Rule::kw_fn
         | Rule::kw_surface
         | Rule::kw_patch

@@ -114,6 +114,18 @@ pub(crate) fn scan(src: &str) -> Scan {
             }
             continue;
         }
+        if b == b'"' {
+            // A string (an import's path): its characters are no tokens; it ends on its line.
+            match src[i + 1..].find(['"', '\n']) {
+                Some(n) if bytes[i + 1 + n] == b'"' => i += n + 2,
+                _ => {
+                    let end = src[i..].find('\n').map_or(src.len(), |n| i + n);
+                    out.push(messages::unterminated_string(Span::new(i, end)));
+                    i = end;
+                }
+            }
+            continue;
+        }
         if !is_token_byte(b) {
             // A run of characters that start no token: one diagnostic for the run.
             let start = i;
@@ -222,6 +234,11 @@ pub(crate) fn token_at(src: &str, pos: usize) -> Span {
         {
             end += 1;
         }
+    } else if b == b'"' {
+        end = src[end..]
+            .find(['"', '\n'])
+            .map_or(src.len(), |n| end + n + 1)
+            .min(src.len());
     } else if b == b'.' && bytes.get(end) == Some(&b'.') {
         end += 1;
     } else {

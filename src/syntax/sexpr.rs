@@ -17,6 +17,9 @@ pub fn sexpr(file: &File) -> String {
 
 fn item_sexpr(s: &mut String, item: &Item) {
     match &item.kind {
+        ItemKind::Import { path } => {
+            let _ = write!(s, "(import {:?}", path.name);
+        }
         ItemKind::Const { name, value } => {
             let _ = write!(s, "(const {} ", name.name);
             expr_sexpr(s, value);

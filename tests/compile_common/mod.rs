@@ -102,6 +102,14 @@ impl Reference<'_> {
             }
             ExprKind::Surface(id) => self.surface(*id, p),
             ExprKind::Dist(r) => (self.dist)(r, p),
+            ExprKind::At(inner, at) => {
+                let q = DVec3::new(
+                    self.eval(&at[0], p, params),
+                    self.eval(&at[1], p, params),
+                    self.eval(&at[2], p, params),
+                );
+                self.eval(inner, q, params)
+            }
         }
     }
 }
