@@ -11,7 +11,7 @@
 //! can resolve the shape's smallest feature (always for the blobs, whose extent is known
 //! only from it).
 //!
-//! `SURFC_SWEEP=N` runs N shapes (default 60, ~30 s in the test profile; 200 for the full
+//! `SURFC_SWEEP=N` runs N shapes (default 60, ~20 s in the test profile; 200 for the full
 //! run); the figures (right, refused, wrong, time) are printed.
 
 mod common;
