@@ -4,7 +4,8 @@
 //! surface (printed once per case, measured with a timing wrapper around the surface).
 //! `components/…`: genus 3 at step 0.3 meshed from its box alone (the component search of
 //! `survey::components`) against the same box with a start point, and the search's share of
-//! the time (printed once).
+//! the time (printed once). `verify/crossings_sphere_0.01`: the crossing check of the
+//! verification alone on the 1.3 M-triangle sphere.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -14,6 +15,7 @@ use glam::DVec3;
 use surfc::compile::compile_surface;
 use surfc::eval::Engine;
 use surfc::march::{MarchInput, MarchSettings, march};
+use surfc::mesh::check::intersecting_pairs;
 use surfc::sema::program::{SurfaceId, SurfaceRef};
 use surfc::surface::compiled::CompiledSurface;
 use surfc::surface::{NativeSurface, Surface, ValueGrad};
@@ -194,8 +196,26 @@ fn components(c: &mut Criterion, make: &dyn Fn() -> CompiledSurface) {
     g.finish();
 }
 
+/// The crossing check alone (the verification's most expensive part) on a finished mesh.
+fn crossings(c: &mut Criterion, name: &str, mesh: &surfc::mesh::Mesh) {
+    let mut g = c.benchmark_group("verify");
+    g.throughput(Throughput::Elements(mesh.triangles.len() as u64));
+    g.sample_size(10);
+    g.bench_function(name, |b| {
+        b.iter(|| black_box(intersecting_pairs(black_box(mesh)).len()))
+    });
+    g.finish();
+}
+
 fn benches(c: &mut Criterion) {
     let s = DVec3::new(1.0, 1.0, 1.0);
+    let fine = march(
+        &mut sphere(),
+        &MarchInput::from_point(0.01, s),
+        &MarchSettings::default(),
+    )
+    .expect("the sphere meshes");
+    crossings(c, "crossings_sphere_0.01", &fine);
     case(c, "sphere_0.3", sphere, 0.3, s);
     case(c, "sphere_0.03", sphere, 0.03, s);
     case(c, "sphere_0.01", sphere, 0.01, s);

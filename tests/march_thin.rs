@@ -137,4 +137,16 @@ fn sphere_local_step_cost() {
         "sphere step 0.01: local step {local:.3} s ({nl} triangles), uniform {uniform:.3} s ({nu} triangles), ratio {:.3}",
         local / uniform
     );
+    // The verification's crossing check alone, on the same mesh.
+    let mut s = sphere(2.0);
+    let input = MarchInput::from_point(0.01, DVec3::new(1.0, 1.0, 1.0));
+    let m = march_verified(s.as_mut(), &input, &settings, None).expect("the sphere meshes");
+    let t = std::time::Instant::now();
+    let pairs = surfc::mesh::check::intersecting_pairs(&m.mesh);
+    println!(
+        "crossing check: {:.3} s, {} pair(s)",
+        t.elapsed().as_secs_f64(),
+        pairs.len()
+    );
+    assert!(pairs.is_empty());
 }

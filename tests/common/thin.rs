@@ -18,8 +18,9 @@ pub struct Shape {
     pub start: DVec3,
     /// χ = 2 − 2·genus.
     pub euler: i64,
-    /// The surface's bounding box.
+    /// The surface's bounding box (exact if `bbox_exact`, else a box the surface lies in).
     pub bbox: (DVec3, DVec3),
+    pub bbox_exact: bool,
     /// The smallest feature: tube or neck diameter, plate thickness, bridge width.
     pub feature: f64,
 }
@@ -55,6 +56,7 @@ pub fn torus(big: f64, r: f64, rot: DMat3) -> Shape {
         start: rot * DVec3::new(big, 0.0, r),
         euler: 0,
         bbox: (-ext, ext),
+        bbox_exact: true,
         feature: 2.0 * r,
     }
 }
@@ -88,6 +90,7 @@ pub fn dumbbell(n: f64, rot: DMat3) -> Shape {
         start: rot * DVec3::new(-0.5, (0.75 * (0.25 + n2)).sqrt(), 0.0),
         euler: 2,
         bbox: (-ext, ext),
+        bbox_exact: true,
         feature: 2.0 * n,
     }
 }
@@ -144,6 +147,7 @@ pub fn plate(holes: usize, a: f64, b: f64, hole: f64, gap: f64, k: f64) -> Shape
         start: DVec3::new(0.0, 0.5 * (hole + b), zmax),
         euler: 2 - 2 * holes as i64,
         bbox: (DVec3::new(-a, -b, -zmax), DVec3::new(a, b, zmax)),
+        bbox_exact: true,
         feature: bridge.min(gap).min(side).min(2.0 * zmax),
     }
 }
@@ -163,6 +167,93 @@ pub fn superquadric(a: f64, b: f64, c: f64, p: i32) -> Shape {
         start: DVec3::new(0.0, 0.0, c),
         euler: 2,
         bbox: (-s, s),
+        bbox_exact: true,
         feature: 2.0 * a.min(b).min(c),
     }
+}
+
+/// A chain of Gaussian blobs joined by necks: f = level − Σ exp(−|p − cᵢ|²/w²), w = `width`.
+/// Consecutive centres are placed so that the two-blob neck between them has radius
+/// `necks[i]` (the sum of two blobs at distance d has the neck radius
+/// r = w·√(ln(2/level) − d²/(4w²)) at its middle), each in a random direction that keeps
+/// every other centre at least 1.5 d away, so the solid is a tree of balls and necks: a
+/// sphere (χ = 2). The neck radii are measured again on the final sum (the other blobs'
+/// tails widen them a little) and the smallest diameter is the feature. The bounding box is
+/// not known in closed form: `bbox` is a box the surface lies in (where even k blobs' sum
+/// stays below the level), and the sweep takes the extent from the voxel reference.
+pub fn blobs(
+    level: f64,
+    width: f64,
+    necks: &[f64],
+    mut direction: impl FnMut() -> DVec3,
+) -> Option<Shape> {
+    let w2 = width * width;
+    let mut centres = vec![DVec3::ZERO];
+    for &r in necks {
+        let d2 = 4.0 * w2 * ((2.0 / level).ln() - r * r / w2);
+        // Two blobs closer than √2·w have no neck between them (the middle is no saddle).
+        if d2.is_nan() || d2 <= 2.0 * w2 {
+            return None;
+        }
+        let d = d2.sqrt();
+        let last = *centres.last()?;
+        let next = (0..64).map(|_| last + d * direction()).find(|c| {
+            centres[..centres.len() - 1]
+                .iter()
+                .all(|o| o.distance(*c) >= 1.5 * d)
+        })?;
+        centres.push(next);
+    }
+    let cs = centres.clone();
+    let f = move |p: DVec3| {
+        let (mut v, mut g) = (level, DVec3::ZERO);
+        for c in &cs {
+            let e = (-(p - *c).length_squared() / w2).exp();
+            v -= e;
+            g += e * 2.0 * (p - *c) / w2;
+        }
+        vg(v, g)
+    };
+    // The neck radius across the middle of each pair, by bisection along a perpendicular.
+    let mut feature = f64::INFINITY;
+    for pair in centres.windows(2) {
+        let (m, axis) = (0.5 * (pair[0] + pair[1]), (pair[1] - pair[0]).normalize());
+        let side = axis.any_orthonormal_vector();
+        if f(m).value >= 0.0 {
+            return None;
+        }
+        let (mut a, mut b) = (0.0, width);
+        for _ in 0..50 {
+            let t = 0.5 * (a + b);
+            if f(m + t * side).value < 0.0 {
+                a = t;
+            } else {
+                b = t;
+            }
+        }
+        feature = feature.min(2.0 * a);
+    }
+    let ball = width * (1.0 / level).ln().sqrt();
+    let reach = DVec3::splat(width * (centres.len() as f64 / level).ln().sqrt());
+    let (lo, hi) = centres
+        .iter()
+        .fold((centres[0], centres[0]), |(lo, hi), c| {
+            (lo.min(*c), hi.max(*c))
+        });
+    Some(Shape {
+        name: format!(
+            "blobs n={} level={level:.3} necks={:?}",
+            centres.len(),
+            necks
+                .iter()
+                .map(|r| (r * 1000.0).round() / 1000.0)
+                .collect::<Vec<_>>()
+        ),
+        f: std::rc::Rc::new(f),
+        start: DVec3::new(0.0, 0.0, ball),
+        euler: 2,
+        bbox: (lo - reach, hi + reach),
+        bbox_exact: false,
+        feature: feature.min(2.0 * ball),
+    })
 }

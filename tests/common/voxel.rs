@@ -22,6 +22,9 @@ pub struct SolidCount {
     /// Whether any inside vertex lies on the box's faces: then the solid is cut by the box
     /// and the counts are of the cut solid.
     pub touches_box: bool,
+    /// The grid indices (lowest, highest corner) of the box around every inside vertex, or
+    /// `None` if no vertex is inside: the solid's extent to within one cell.
+    pub inside: Option<([usize; 3], [usize; 3])>,
 }
 
 impl SolidCount {
@@ -40,14 +43,20 @@ pub fn solid_count(f: impl Fn(DVec3) -> f64, lo: DVec3, hi: DVec3, n: usize) -> 
     let h = (hi - lo) / n as f64;
     let mut inside = vec![false; m * m * m];
     let mut touches_box = false;
+    let mut inside_box: Option<([usize; 3], [usize; 3])> = None;
     for k in 0..m {
         for j in 0..m {
             for i in 0..m {
                 let p = lo + h * DVec3::new(i as f64, j as f64, k as f64);
                 let is_in = f(p) < 0.0;
                 inside[idx(i, j, k)] = is_in;
-                if is_in && [i, j, k].iter().any(|&c| c == 0 || c == n) {
-                    touches_box = true;
+                if is_in {
+                    touches_box |= [i, j, k].iter().any(|&c| c == 0 || c == n);
+                    let (lo, hi) = inside_box.get_or_insert(([i, j, k], [i, j, k]));
+                    for (a, c) in [i, j, k].into_iter().enumerate() {
+                        lo[a] = lo[a].min(c);
+                        hi[a] = hi[a].max(c);
+                    }
                 }
             }
         }
@@ -80,6 +89,7 @@ pub fn solid_count(f: impl Fn(DVec3) -> f64, lo: DVec3, hi: DVec3, n: usize) -> 
         euler: v - e + f2 - c,
         components: components(&inside, m),
         touches_box,
+        inside: inside_box,
     }
 }
 
