@@ -14,7 +14,7 @@ use common::voxel::solid_count;
 use glam::DVec3;
 use surfc::cli::mesh::{Meshed, mesh_source};
 use surfc::mesh::check::{Expect, check};
-use surfc::mesh::topology::topology;
+use surfc::mesh::topology::{Topology, topology};
 use surfc::surface::Surface;
 
 /// Meshes `source` (one mesh block) and returns it; panics with the diagnostics otherwise.
@@ -273,6 +273,25 @@ fn random_disjoint_shapes_are_all_found() {
     println!("{cases} scenes, {triangles} triangles");
 }
 
+/// Meshes `source` (one block with a box) and checks it with `expect` plus: every vertex in
+/// the box and on the surface, the boundary only on the box's faces, no warnings.
+fn mesh_open_in_box(source: &str, expect: Expect) -> (Meshed, Topology) {
+    let m = mesh_one(source);
+    let expect = Expect {
+        bbox: m.bbox,
+        boundary_on_box: true,
+        box_tolerance: 1e-9 * m.step,
+        max_vertex_error: Some(1e-9 * m.step),
+        ..expect
+    };
+    let program = checked(source);
+    let mut surface = build(&program, &program.meshes[0].surface, m.step).expect("compiles");
+    let (topo, violations) = check(&m.mesh, Some(&mut surface as &mut dyn Surface), &expect);
+    assert!(violations.is_empty(), "{}: {violations:?}", m.name);
+    assert!(m.warnings.is_empty(), "{}: {:?}", m.name, m.warnings);
+    (m, topo)
+}
+
 /// Must show 3: the gyroid in [−2.5, 2.5]³ at step 0.15, no start: one component, its
 /// boundary only on the box faces, no edge in more than two triangles.
 #[test]
@@ -281,22 +300,12 @@ fn gyroid_in_a_box_without_start() {
         surface gyroid = sin(x) * cos(y) + sin(y) * cos(z) + sin(z) * cos(x);
         mesh gyroid = gyroid { step: 0.15; box: (-2.5, -2.5, -2.5) .. (2.5, 2.5, 2.5); }
     ";
-    let m = mesh_one(source);
-    let (lo, hi) = m.bbox.expect("a box");
     let expect = Expect {
         components: Some(1),
-        bbox: Some((lo, hi)),
-        boundary_on_box: true,
-        box_tolerance: 1e-9 * m.step,
-        max_vertex_error: Some(1e-9 * m.step),
         ..Expect::default()
     };
-    let program = checked(source);
-    let mut surface = build(&program, &program.meshes[0].surface, m.step).expect("compiles");
-    let (topo, violations) = check(&m.mesh, Some(&mut surface as &mut dyn Surface), &expect);
-    assert!(violations.is_empty(), "gyroid: {violations:?}");
+    let (_, topo) = mesh_open_in_box(source, expect);
     assert_eq!(topo.non_manifold_edges.len(), 0);
-    assert!(m.warnings.is_empty(), "{:?}", m.warnings);
     println!(
         "gyroid: {} triangles, {} boundary loops, χ {}",
         topo.triangles,
@@ -410,24 +419,14 @@ fn pieces_cut_by_the_box_are_found_from_its_faces() {
         surface s = min((x^2 + y^2 + z^2 + 1 - 0.09)^2 - 4 * (x^2 + y^2), (x - 0.1)^2 + (z - 0.9)^2 - 0.04);
         mesh s = s { step: 0.08; box: (-0.5, -1.6, -0.5) .. (0.5, 1.6, 1.3); }
     ";
-    let m = mesh_one(source);
-    let (lo, hi) = m.bbox.expect("a box");
     let expect = Expect {
         components: Some(3),
         euler: Some(0),
         boundary_loops: Some(6),
-        bbox: Some((lo, hi)),
-        boundary_on_box: true,
-        box_tolerance: 1e-9 * m.step,
-        max_vertex_error: Some(1e-9 * m.step),
         ..Expect::default()
     };
-    let program = checked(source);
-    let mut surface = build(&program, &program.meshes[0].surface, m.step).expect("compiles");
-    let (topo, violations) = check(&m.mesh, Some(&mut surface as &mut dyn Surface), &expect);
-    assert!(violations.is_empty(), "{violations:?}");
+    let (m, topo) = mesh_open_in_box(source, expect);
     assert_eq!(m.report.components, 3);
-    assert!(m.warnings.is_empty(), "{:?}", m.warnings);
     println!(
         "{} triangles, {} boundary loops, χ {}",
         topo.triangles,

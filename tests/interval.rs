@@ -183,6 +183,15 @@ fn gallery_surfaces() -> Vec<(
     out
 }
 
+/// A random box inside `lo .. hi`, its size from the whole down to 10^−`decades` of it.
+fn random_cell(rng: &mut Rng, lo: DVec3, hi: DVec3, decades: f64) -> (DVec3, DVec3) {
+    let size = hi - lo;
+    let scale = 10f64.powf(-decades * rng.unit());
+    let w = size * scale * DVec3::new(rng.unit(), rng.unit(), rng.unit()).max(DVec3::splat(0.1));
+    let c = lo + (size - w) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+    (c, c + w)
+}
+
 #[test]
 fn every_gallery_surface_is_bounded_over_random_boxes() {
     let boxes: usize = std::env::var("INTERVAL_BOXES")
@@ -196,14 +205,9 @@ fn every_gallery_surface_is_bounded_over_random_boxes() {
         let interior = if dist { 1 } else { 8 };
         let (mut pruned, mut values) = (0usize, 0usize);
         for b in 0..boxes {
-            let size = hi - lo;
             // Cell sizes from the whole box down to 1e-6 of it, as the octree makes them.
-            let scale = 10f64.powf(-6.0 * rng.unit());
-            let w = size
-                * scale
-                * DVec3::new(rng.unit(), rng.unit(), rng.unit()).max(DVec3::splat(0.1));
-            let c = lo + (size - w) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
-            let (clo, chi) = (c, c + w);
+            let (clo, chi) = random_cell(&mut rng, lo, hi, 6.0);
+            let w = chi - clo;
             let i = surface
                 .bound(clo, chi)
                 .expect("a compiled surface bounds itself");
@@ -320,13 +324,8 @@ fn every_gallery_surface_bounds_its_gradient_over_random_boxes() {
         let interior = if dist { 1 } else { 6 };
         let mut checked_values = 0usize;
         for b in 0..boxes {
-            let size = hi - lo;
-            let scale = 10f64.powf(-5.0 * rng.unit());
-            let w = size
-                * scale
-                * DVec3::new(rng.unit(), rng.unit(), rng.unit()).max(DVec3::splat(0.1));
-            let c = lo + (size - w) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
-            let (clo, chi) = (c, c + w);
+            let (clo, chi) = random_cell(&mut rng, lo, hi, 5.0);
+            let w = chi - clo;
             let g = surface
                 .bound_gradient(clo, chi, [true; 3])
                 .expect("a compiled surface bounds its gradient");

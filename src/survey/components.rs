@@ -44,7 +44,8 @@ use crate::surface::Surface;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SearchSettings {
     /// Octree cells are split until their longest side is at most `leaf · step`. Default
-    /// 1.0: a component larger than the step holds a cell's worth of surface.
+    /// 1.0: a kept cell's centre is within a step of the extreme point it holds, so Newton
+    /// from there reaches the piece through that point.
     pub leaf: f64,
     /// A seed is covered when a triangle of the mesh so far lies within `covered · step` of
     /// it with a normal that agrees (`covered_normal_cos`). Default 0.3: a triangle's chord
