@@ -14,7 +14,7 @@ use common::voxel::solid_count;
 use glam::DVec3;
 use surfc::cli::mesh::{Meshed, mesh_source};
 use surfc::mesh::check::{Expect, check};
-use surfc::mesh::topology::topology;
+use surfc::mesh::topology::{Topology, topology};
 use surfc::surface::Surface;
 
 /// Meshes `source` (one mesh block) and returns it; panics with the diagnostics otherwise.
@@ -273,6 +273,25 @@ fn random_disjoint_shapes_are_all_found() {
     println!("{cases} scenes, {triangles} triangles");
 }
 
+/// Meshes `source` (one block with a box) and checks it with `expect` plus: every vertex in
+/// the box and on the surface, the boundary only on the box's faces, no warnings.
+fn mesh_open_in_box(source: &str, expect: Expect) -> (Meshed, Topology) {
+    let m = mesh_one(source);
+    let expect = Expect {
+        bbox: m.bbox,
+        boundary_on_box: true,
+        box_tolerance: 1e-9 * m.step,
+        max_vertex_error: Some(1e-9 * m.step),
+        ..expect
+    };
+    let program = checked(source);
+    let mut surface = build(&program, &program.meshes[0].surface, m.step).expect("compiles");
+    let (topo, violations) = check(&m.mesh, Some(&mut surface as &mut dyn Surface), &expect);
+    assert!(violations.is_empty(), "{}: {violations:?}", m.name);
+    assert!(m.warnings.is_empty(), "{}: {:?}", m.name, m.warnings);
+    (m, topo)
+}
+
 /// Must show 3: the gyroid in [−2.5, 2.5]³ at step 0.15, no start: one component, its
 /// boundary only on the box faces, no edge in more than two triangles.
 #[test]
@@ -281,22 +300,12 @@ fn gyroid_in_a_box_without_start() {
         surface gyroid = sin(x) * cos(y) + sin(y) * cos(z) + sin(z) * cos(x);
         mesh gyroid = gyroid { step: 0.15; box: (-2.5, -2.5, -2.5) .. (2.5, 2.5, 2.5); }
     ";
-    let m = mesh_one(source);
-    let (lo, hi) = m.bbox.expect("a box");
     let expect = Expect {
         components: Some(1),
-        bbox: Some((lo, hi)),
-        boundary_on_box: true,
-        box_tolerance: 1e-9 * m.step,
-        max_vertex_error: Some(1e-9 * m.step),
         ..Expect::default()
     };
-    let program = checked(source);
-    let mut surface = build(&program, &program.meshes[0].surface, m.step).expect("compiles");
-    let (topo, violations) = check(&m.mesh, Some(&mut surface as &mut dyn Surface), &expect);
-    assert!(violations.is_empty(), "gyroid: {violations:?}");
+    let (_, topo) = mesh_open_in_box(source, expect);
     assert_eq!(topo.non_manifold_edges.len(), 0);
-    assert!(m.warnings.is_empty(), "{:?}", m.warnings);
     println!(
         "gyroid: {} triangles, {} boundary loops, χ {}",
         topo.triangles,
@@ -347,5 +356,81 @@ fn a_component_smaller_than_the_step_is_a_warning() {
     assert!(
         (d - 0.05).abs() < 1e-6,
         "{w}: {d} from the small ball's centre"
+    );
+}
+
+/// A closed component only a little larger than the step (a ball of radius 1.5·step) beside
+/// a big one, at random places in a big box: the search keeps only the cells where a
+/// component can have its largest x (issue 11, item 5), and the small ball's are among them
+/// wherever it lies — between octree cells, near the big ball, near a face.
+#[test]
+fn a_ball_of_one_and_a_half_steps_beside_a_big_one_is_found() {
+    let step = 0.1;
+    let mut rng = Rng(0x0B57_AC1E_0011_0005);
+    for case in 0..6 {
+        // Anywhere in the box's corner region outside the big ball (radius 1.5 at the
+        // origin), at least two steps from it and from the faces.
+        let c = loop {
+            let c = DVec3::new(
+                rng.range(-2.6, 2.6),
+                rng.range(-2.6, 2.6),
+                rng.range(-2.6, 2.6),
+            );
+            if c.length() > 1.5 + 0.15 + 2.0 * step && case > 0 {
+                break c;
+            }
+            if case == 0 {
+                // Right next to the big ball: a gap of two steps along a diagonal.
+                break DVec3::new(1.0, 1.0, 1.0).normalize() * (1.5 + 0.15 + 2.0 * step);
+            }
+        };
+        let source = format!(
+            "surface s = min(x^2 + y^2 + z^2 - 2.25, (x - {})^2 + (y - {})^2 + (z - {})^2 - 0.0225);\n\
+             mesh s = s {{ step: {step}; box: (-3, -3, -3) .. (3, 3, 3); }}\n",
+            c.x, c.y, c.z
+        );
+        let m = mesh_one(&source);
+        assert_closed(&m, 2, 4);
+        // The small ball is meshed whole: its vertices reach its extremes along x.
+        let small: Vec<f64> = m
+            .mesh
+            .vertices
+            .iter()
+            .filter(|v| (**v - c).length() < 0.3)
+            .map(|v| v.x - c.x)
+            .collect();
+        let (lo, hi) = small
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+        assert!(
+            lo < -0.13 && hi > 0.13,
+            "case {case} at {c}: the small ball spans {lo} .. {hi} in x"
+        );
+    }
+}
+
+/// Components the box cuts: a torus (ring radius 1, tube 0.3) whose ring crosses the slab
+/// |x| ≤ 0.5 twice is two pieces, each a tube between two faces with no extreme in x inside
+/// the box (their seeds come from the faces' search); a cylinder crossing the box is one
+/// more. Three annuli: χ 0, six boundary loops, all on the faces.
+#[test]
+fn pieces_cut_by_the_box_are_found_from_its_faces() {
+    let source = "
+        surface s = min((x^2 + y^2 + z^2 + 1 - 0.09)^2 - 4 * (x^2 + y^2), (x - 0.1)^2 + (z - 0.9)^2 - 0.04);
+        mesh s = s { step: 0.08; box: (-0.5, -1.6, -0.5) .. (0.5, 1.6, 1.3); }
+    ";
+    let expect = Expect {
+        components: Some(3),
+        euler: Some(0),
+        boundary_loops: Some(6),
+        ..Expect::default()
+    };
+    let (m, topo) = mesh_open_in_box(source, expect);
+    assert_eq!(m.report.components, 3);
+    println!(
+        "{} triangles, {} boundary loops, χ {}",
+        topo.triangles,
+        topo.boundary_loops.len(),
+        topo.euler_characteristic
     );
 }

@@ -183,6 +183,15 @@ fn gallery_surfaces() -> Vec<(
     out
 }
 
+/// A random box inside `lo .. hi`, its size from the whole down to 10^−`decades` of it.
+fn random_cell(rng: &mut Rng, lo: DVec3, hi: DVec3, decades: f64) -> (DVec3, DVec3) {
+    let size = hi - lo;
+    let scale = 10f64.powf(-decades * rng.unit());
+    let w = size * scale * DVec3::new(rng.unit(), rng.unit(), rng.unit()).max(DVec3::splat(0.1));
+    let c = lo + (size - w) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+    (c, c + w)
+}
+
 #[test]
 fn every_gallery_surface_is_bounded_over_random_boxes() {
     let boxes: usize = std::env::var("INTERVAL_BOXES")
@@ -196,14 +205,9 @@ fn every_gallery_surface_is_bounded_over_random_boxes() {
         let interior = if dist { 1 } else { 8 };
         let (mut pruned, mut values) = (0usize, 0usize);
         for b in 0..boxes {
-            let size = hi - lo;
             // Cell sizes from the whole box down to 1e-6 of it, as the octree makes them.
-            let scale = 10f64.powf(-6.0 * rng.unit());
-            let w = size
-                * scale
-                * DVec3::new(rng.unit(), rng.unit(), rng.unit()).max(DVec3::splat(0.1));
-            let c = lo + (size - w) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
-            let (clo, chi) = (c, c + w);
+            let (clo, chi) = random_cell(&mut rng, lo, hi, 6.0);
+            let w = chi - clo;
             let i = surface
                 .bound(clo, chi)
                 .expect("a compiled surface bounds itself");
@@ -240,5 +244,116 @@ fn every_gallery_surface_is_bounded_over_random_boxes() {
         }
         println!("{name}: {boxes} boxes, {values} values inside, {pruned} boxes pruned");
         assert!(values >= boxes, "{name}: too few defined values");
+    }
+}
+
+/// Interval gradients (issue 11, item 5: the component search prunes with them): for every
+/// opcode, on random operand intervals, the partials contain the derivative the dual
+/// numbers of `eval::ops` give at every sampled point (x the first operand, y the second).
+#[test]
+fn every_opcode_contains_its_sampled_derivatives() {
+    use surfc::eval::IntervalGrad;
+    use surfc::eval::interval_grad::interval_grad;
+    let mut rng = Rng(0x2545_F491_4F6C_DD1D);
+    for op in Op::ALL {
+        if op == Op::Dist {
+            continue;
+        }
+        let binary = op.arity() == Arity::Binary;
+        let mut checked_derivatives = 0usize;
+        for case in 0..2000 {
+            let a = random_interval(&mut rng);
+            let b = if binary {
+                random_interval(&mut rng)
+            } else {
+                Interval::point(0.0)
+            };
+            let r = interval_grad(op, IntervalGrad::input(a, 0), IntervalGrad::input(b, 1));
+            let xs = samples(a, &mut rng, 12);
+            let ys = if binary {
+                samples(b, &mut rng, 12)
+            } else {
+                vec![0.0]
+            };
+            for &x in &xs {
+                for &y in &ys {
+                    let g = ops::grad(op, ops::Grad::input(x, 0), ops::Grad::input(y, 1));
+                    if g.v.is_nan() {
+                        continue;
+                    }
+                    for (k, d) in [g.dx, g.dy].into_iter().enumerate() {
+                        if d.is_nan() {
+                            continue;
+                        }
+                        checked_derivatives += 1;
+                        assert!(
+                            r.d[k].is_empty() || r.d[k].contains(d),
+                            "{} case {case}: ∂{k} at ({x:e}, {y:e}) = {d:e} is outside {:?} (operands {a:?}, {b:?})",
+                            op.name(),
+                            r.d[k]
+                        );
+                    }
+                    assert_eq!(
+                        r.d[2],
+                        Interval { lo: 0.0, hi: 0.0 },
+                        "no z in the operands"
+                    );
+                }
+            }
+        }
+        assert!(
+            checked_derivatives > 1000,
+            "{}: too few defined derivatives",
+            op.name()
+        );
+    }
+}
+
+/// Every gallery surface over random boxes: the interval partials contain ∇f at sampled
+/// points, and where f is defined on the whole box the mean-value form contains f there.
+#[test]
+fn every_gallery_surface_bounds_its_gradient_over_random_boxes() {
+    let boxes: usize = std::env::var("INTERVAL_BOXES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(10_000)
+        / 4;
+    let mut rng = Rng(0x94D0_49BB_1331_11EB);
+    for (name, mut surface, lo, hi) in gallery_surfaces() {
+        let dist = surface.tape().children() > 0;
+        let interior = if dist { 1 } else { 6 };
+        let mut checked_values = 0usize;
+        for b in 0..boxes {
+            let (clo, chi) = random_cell(&mut rng, lo, hi, 5.0);
+            let w = chi - clo;
+            let g = surface
+                .bound_gradient(clo, chi, [true; 3])
+                .expect("a compiled surface bounds its gradient");
+            let centre = (clo + chi) * 0.5;
+            let at_centre = surface.bound(centre, centre).expect("bounded");
+            let mean = g.mean_value(at_centre, clo, chi, [true; 3]);
+            for _ in 0..interior {
+                let p = clo + w * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+                let vg = surface.value_gradient(p);
+                if vg.value.is_nan() {
+                    continue;
+                }
+                checked_values += 1;
+                assert!(
+                    mean.contains(vg.value),
+                    "{name}, box {b} {clo} .. {chi}: f({p}) = {:e} is outside the mean-value form {mean:?}",
+                    vg.value
+                );
+                for k in 0..3 {
+                    let d = vg.gradient[k];
+                    assert!(
+                        d.is_nan() || g.d[k].is_empty() || g.d[k].contains(d),
+                        "{name}, box {b} {clo} .. {chi}: ∂{k}f({p}) = {d:e} is outside {:?}",
+                        g.d[k]
+                    );
+                }
+            }
+        }
+        println!("{name}: {boxes} boxes, {checked_values} points inside");
     }
 }

@@ -17,6 +17,7 @@
 //! `docs/compiler.md` has the measurements behind these choices.
 
 pub mod interval;
+pub mod interval_grad;
 pub mod native;
 pub mod ops;
 
@@ -25,6 +26,7 @@ use glam::DVec3;
 use crate::compile::tape::{Arity, Op, Reg, Tape};
 use crate::surface::{Surface, ValueGrad};
 pub use interval::Interval;
+pub use interval_grad::IntervalGrad;
 pub use ops::Grad;
 
 /// Points per block of the gradient batch path. Measured on the genus-3 and blend benches
@@ -122,6 +124,8 @@ pub struct Vm {
     lane_grads: Vec<GradLanes>,
     /// The registers of an interval evaluation.
     intervals: Vec<Interval>,
+    /// The registers of an interval-gradient evaluation.
+    interval_grads: Vec<IntervalGrad>,
     /// The widest vector instructions the CPU has (checked once): the block loops run in a
     /// copy compiled for them. Results are bit-identical (Rust never contracts a·b + c into
     /// a fused multiply-add).
@@ -319,6 +323,7 @@ impl Vm {
             lane_values: Vec::new(),
             lane_grads: Vec::new(),
             intervals: Vec::new(),
+            interval_grads: Vec::new(),
             simd: Simd::detect(),
             masks,
             output_mask,
@@ -475,6 +480,61 @@ impl Vm {
             }
         }
         get(regs, tape.outputs()[0]).unwrap_or(Interval::ENTIRE)
+    }
+
+    /// [`Vm::interval`] with interval partials ([`interval_grad`]): the first output's value
+    /// and its derivatives by the inputs `axes` asks for over the box `lo .. hi` (the others
+    /// are not computed and come back as the whole line). A `dist` child gives its value
+    /// bound and unknown partials (the whole line).
+    pub fn interval_grad(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> IntervalGrad {
+        let Vm {
+            tape,
+            children,
+            interval_grads: regs,
+            ..
+        } = self;
+        let unknown = IntervalGrad::unknown_slope(Interval::ENTIRE);
+        regs.clear();
+        regs.resize(tape.registers(), unknown);
+        for (axis, r) in regs.iter_mut().enumerate().take(tape.inputs()) {
+            *r = if axis < 3 && axes[axis] {
+                IntervalGrad::input(Interval::new(lo[axis], hi[axis]), axis)
+            } else if axis < 3 {
+                // An input whose partial is not asked for: a constant to the chain rule,
+                // which then skips that partial's work throughout.
+                IntervalGrad::constant(Interval::new(lo[axis], hi[axis]))
+            } else {
+                IntervalGrad::constant(Interval::point(0.0))
+            };
+        }
+        for (i, &c) in tape.constants().iter().enumerate() {
+            regs[tape.inputs() + i] = IntervalGrad::constant(Interval::point(c));
+        }
+        let get = |regs: &[IntervalGrad], r: Reg| regs.get(r.index()).copied();
+        for ins in tape.instrs() {
+            let v = match ins.op {
+                Op::Dist => IntervalGrad::unknown_slope(
+                    children
+                        .get_mut(ins.child().index())
+                        .and_then(|child| child.bound(lo, hi))
+                        .unwrap_or(Interval::ENTIRE),
+                ),
+                op => match (get(regs, ins.a), get(regs, ins.b)) {
+                    (Some(a), Some(b)) => interval_grad::interval_grad(op, a, b),
+                    _ => unknown,
+                },
+            };
+            if let Some(slot) = regs.get_mut(ins.out.index()) {
+                *slot = v;
+            }
+        }
+        let mut out = get(regs, tape.outputs()[0]).unwrap_or(unknown);
+        for (d, asked) in out.d.iter_mut().zip(axes) {
+            if !asked {
+                *d = Interval::ENTIRE;
+            }
+        }
+        out
     }
 
     /// Every output with its partials, into `out` (as many as fit). Interpreted (patch tapes

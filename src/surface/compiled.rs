@@ -6,7 +6,7 @@ use glam::DVec3;
 use super::{Patch, PatchJet, Surface, ValueGrad};
 use crate::compile::tape::Tape;
 use crate::eval::native::NativeError;
-use crate::eval::{Engine, Grad, Interval, Vm, VmError};
+use crate::eval::{Engine, Grad, Interval, IntervalGrad, Vm, VmError};
 
 /// An implicit surface f(x, y, z) = 0 evaluated from its tape.
 #[derive(Debug)]
@@ -64,6 +64,10 @@ impl Surface for CompiledSurface {
     /// The tape run on intervals (interpreted: the search asks a few thousand cells).
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
         Some(self.vm.interval(lo, hi))
+    }
+
+    fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
+        Some(self.vm.interval_grad(lo, hi, axes))
     }
 }
 

@@ -8,7 +8,7 @@ use glam::DVec3;
 
 pub mod dist;
 
-use crate::eval::Interval;
+use crate::eval::{Interval, IntervalGrad};
 
 pub use dist::{ImplicitDist, PatchDist};
 
@@ -41,6 +41,16 @@ pub trait Surface {
         let _ = (lo, hi);
         None
     }
+
+    /// [`Surface::bound`] with intervals holding the partial derivatives ∂f/∂x, ∂f/∂y,
+    /// ∂f/∂z that `axes` asks for over the box (their generalized values where f is not
+    /// differentiable: `eval::interval_grad`; the partials not asked for may be the whole
+    /// line), or None when the surface cannot bound its derivatives (then the component
+    /// search uses `bound` alone). Default: None.
+    fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
+        let _ = (lo, hi, axes);
+        None
+    }
 }
 
 impl<S: Surface + ?Sized> Surface for Box<S> {
@@ -53,6 +63,9 @@ impl<S: Surface + ?Sized> Surface for Box<S> {
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
         (**self).bound(lo, hi)
     }
+    fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
+        (**self).bound_gradient(lo, hi, axes)
+    }
 }
 
 impl<S: Surface + ?Sized> Surface for &mut S {
@@ -64,6 +77,9 @@ impl<S: Surface + ?Sized> Surface for &mut S {
     }
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
         (**self).bound(lo, hi)
+    }
+    fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
+        (**self).bound_gradient(lo, hi, axes)
     }
 }
 

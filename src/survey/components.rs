@@ -3,10 +3,18 @@
 //! holding every component the marcher made from the seeds found, the number of components,
 //! and warnings (with their places) for what could not be meshed.
 //!
-//! 1. An octree over the box: a cell whose interval bound ([`Surface::bound`]) excludes 0
-//!    cannot hold the surface and is dropped; the others are split down to cells whose
-//!    longest side is about the step (`SearchSettings::leaf`).
-//! 2. Each remaining cell, in octree order, gives a seed: surfacepoint from its centre (or,
+//! 1. Octrees over the box's inside, its six faces and its twelve edges keep the cells, down
+//!    to about the step (`SearchSettings::leaf`), where a piece of the surface in the box
+//!    must pass at one of its extremes: a piece that does not reach the faces is closed and
+//!    has a point of largest x, where ∂f/∂y = ∂f/∂z = 0 (for a crease, 0 is in the hull of
+//!    the gradients); a piece that reaches them crosses a face in curves, each of which has
+//!    a point of largest first face coordinate inside the face (where the derivative along
+//!    the second vanishes) or meets an edge. A cell is dropped when the interval bound of f
+//!    ([`Surface::bound`], and the mean-value form on small cells) excludes 0, or when the
+//!    interval partials ([`Surface::bound_gradient`]) show that the derivatives the region
+//!    needs cannot vanish there.
+//! 2. Each remaining cell (a face or edge cell grown into the box by a leaf), in octree
+//!    order, gives a seed: surfacepoint from its centre (or,
 //!    when that does not converge or leaves the box while the cell shows a sign change, from
 //!    the centres of its eight octants). A seed inside the box that no mesh covers yet — no
 //!    triangle within `covered · step` whose normal agrees with the seed's: two sheets
@@ -36,7 +44,8 @@ use crate::surface::Surface;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SearchSettings {
     /// Octree cells are split until their longest side is at most `leaf · step`. Default
-    /// 1.0: a component larger than the step holds a cell's worth of surface.
+    /// 1.0: a kept cell's centre is within a step of the extreme point it holds, so Newton
+    /// from there reaches the piece through that point.
     pub leaf: f64,
     /// A seed is covered when a triangle of the mesh so far lies within `covered · step` of
     /// it with a normal that agrees (`covered_normal_cos`). Default 0.3: a triangle's chord
@@ -192,37 +201,141 @@ impl Cell {
     }
 }
 
-/// The octree's leaves: the cells of about `leaf` size whose interval bound does not
-/// exclude 0, in depth-first order, and whether `max_cells` cut the search short.
+/// The cells the search seeds from ([`candidate_cells`]), in a fixed order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Candidates {
+    /// The leaves that passed every test: cells of the box's inside first, then of its
+    /// faces (flat along one axis), then of its edges (flat along two), each region in
+    /// depth-first order.
+    pub cells: Vec<Cell>,
+    /// Cells bounded (the octree's work).
+    pub visited: usize,
+    /// Whether `max_cells` cut the search short.
+    pub truncated: bool,
+}
+
+/// A region of the box searched by one octree: the box itself, a face or an edge, and which
+/// partial derivatives must be able to vanish in a cell for it to be kept.
+struct Region {
+    cell: Cell,
+    /// `need[k]`: keep only cells where ∂f/∂k may be 0.
+    need: [bool; 3],
+}
+
+/// The regions of the box `lo .. hi` (the module documentation, step 1): the inside, where a
+/// component that does not reach the faces has its largest x with ∂f/∂y = ∂f/∂z = 0; each
+/// face, where a curve of the surface that does not reach the face's edges has its largest
+/// value of the face's first free axis with the derivative along the second = 0; each edge.
+fn regions(lo: DVec3, hi: DVec3) -> Vec<Region> {
+    let mut out = vec![Region {
+        cell: Cell { lo, hi },
+        need: [false, true, true],
+    }];
+    for flat in 0..3 {
+        for at in [lo[flat], hi[flat]] {
+            let mut cell = Cell { lo, hi };
+            cell.lo[flat] = at;
+            cell.hi[flat] = at;
+            // The second free axis: the partial that vanishes at an extreme along the first.
+            let second = if flat == 2 { 1 } else { 2 };
+            let mut need = [false; 3];
+            need[second] = true;
+            out.push(Region { cell, need });
+        }
+    }
+    for free in 0..3 {
+        let (j, k) = ((free + 1) % 3, (free + 2) % 3);
+        for (aj, ak) in [
+            (lo[j], lo[k]),
+            (hi[j], lo[k]),
+            (lo[j], hi[k]),
+            (hi[j], hi[k]),
+        ] {
+            let mut cell = Cell { lo, hi };
+            (cell.lo[j], cell.hi[j]) = (aj, aj);
+            (cell.lo[k], cell.hi[k]) = (ak, ak);
+            out.push(Region {
+                cell,
+                need: [false; 3],
+            });
+        }
+    }
+    out
+}
+
+/// Whether the surface may pass through `cell` at a point where the partials `need` asks
+/// for vanish: the natural interval bound of f must hold 0, and on cells of at most
+/// `MEAN_VALUE_CELLS` leaves the mean-value form too (far tighter there: the natural bound
+/// of a product of quadrics keeps a shell several leaves thick around the surface). A
+/// surface that cannot bound its derivatives is asked for its value bound alone; one that
+/// cannot bound itself keeps every cell.
+fn may_hold(surface: &mut dyn Surface, cell: Cell, need: [bool; 3], leaf: f64) -> bool {
+    // The value first: its bound costs a fraction of the partials', and drops most cells.
+    if surface
+        .bound(cell.lo, cell.hi)
+        .is_some_and(|i| !i.contains(0.0))
+    {
+        return false;
+    }
+    let free = [0, 1, 2].map(|k| cell.hi[k] > cell.lo[k]);
+    let small = (cell.hi - cell.lo).max_element() <= MEAN_VALUE_CELLS * leaf;
+    let axes = if small { free } else { need };
+    if !axes.contains(&true) {
+        return true;
+    }
+    let Some(g) = surface.bound_gradient(cell.lo, cell.hi, axes) else {
+        return true;
+    };
+    if (0..3).any(|k| need[k] && !g.partial_may_vanish(k)) || !g.v.contains(0.0) {
+        return false;
+    }
+    if small && g.defined {
+        let c = cell.centre();
+        if let Some(at_centre) = surface.bound(c, c) {
+            return g
+                .mean_value(at_centre, cell.lo, cell.hi, free)
+                .contains(0.0);
+        }
+    }
+    true
+}
+
+/// Cells up to this many leaves a side are bounded by the mean-value form as well.
+const MEAN_VALUE_CELLS: f64 = 4.0;
+
+/// The octrees over the box's inside, faces and edges (the module documentation, step 1):
+/// the cells of about `leaf` size a component of the surface in the box must pass through
+/// at one of its extremes, and the count of cells bounded. Sound: every component of the
+/// surface inside the box passes through one of the cells (docs/components.md has the
+/// argument).
 pub fn candidate_cells(
     surface: &mut dyn Surface,
     lo: DVec3,
     hi: DVec3,
     leaf: f64,
     max_cells: usize,
-) -> (Vec<Cell>, bool) {
-    let mut leaves = Vec::new();
-    let mut stack = vec![Cell { lo, hi }];
-    let mut visited = 0usize;
-    while let Some(cell) = stack.pop() {
-        visited += 1;
-        if visited > max_cells {
-            return (leaves, true);
-        }
-        let may_hold = surface
-            .bound(cell.lo, cell.hi)
-            .is_none_or(|i| i.contains(0.0));
-        if !may_hold {
-            continue;
-        }
-        if (cell.hi - cell.lo).max_element() <= leaf {
-            leaves.push(cell);
-        } else {
-            // Reversed, so that the first child is searched first.
-            stack.extend(cell.split(leaf).into_iter().rev());
+) -> Candidates {
+    let mut out = Candidates::default();
+    for region in regions(lo, hi) {
+        let mut stack = vec![region.cell];
+        while let Some(cell) = stack.pop() {
+            out.visited += 1;
+            if out.visited > max_cells {
+                out.truncated = true;
+                return out;
+            }
+            if !may_hold(surface, cell, region.need, leaf) {
+                continue;
+            }
+            if (cell.hi - cell.lo).max_element() <= leaf {
+                out.cells.push(cell);
+            } else {
+                // Reversed, so that the first child is searched first.
+                stack.extend(cell.split(leaf).into_iter().rev());
+            }
         }
     }
-    (leaves, false)
+    out
 }
 
 /// How each component is marched: the step, the limit on triangles (for the total, as it
@@ -264,8 +377,9 @@ pub fn mesh_components(
     if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
         return Err(SearchError::InvalidBox { lo, hi });
     }
-    let (cells, truncated) =
-        candidate_cells(surface, lo, hi, settings.leaf * step, settings.max_cells);
+    let Candidates {
+        cells, truncated, ..
+    } = candidate_cells(surface, lo, hi, settings.leaf * step, settings.max_cells);
     let mut search = Search {
         surface,
         step,
@@ -287,8 +401,9 @@ pub fn mesh_components(
     let mut near_faces: Vec<SurfacePoint> = Vec::new();
     let mut unseeded: Vec<Cell> = Vec::new();
     for cell in &cells {
-        let Some(found) = search.seeds_of(*cell) else {
-            unseeded.push(*cell);
+        let cell = search.solid(*cell);
+        let Some(found) = search.seeds_of(cell) else {
+            unseeded.push(cell);
             continue;
         };
         for sp in found {
@@ -334,6 +449,26 @@ impl Search<'_> {
     fn inside(&self, p: DVec3) -> bool {
         let (lo, hi) = self.bbox;
         p.cmpge(lo).all() && p.cmple(hi).all()
+    }
+
+    /// A face or edge cell made solid: grown into the box by a leaf's size along its flat
+    /// axes, so that its seeds start inside the box next to where the surface crosses the
+    /// face. Cells of the inside are returned as they are.
+    fn solid(&self, mut cell: Cell) -> Cell {
+        let (lo, hi) = self.bbox;
+        let leaf = self.settings.leaf * self.step;
+        for k in 0..3 {
+            if cell.lo[k] < cell.hi[k] {
+                continue;
+            }
+            let depth = leaf.min(hi[k] - lo[k]);
+            if cell.lo[k] >= hi[k] {
+                cell.lo[k] = hi[k] - depth;
+            } else {
+                cell.hi[k] = lo[k] + depth;
+            }
+        }
+        cell
     }
 
     fn away_from_faces(&self, p: DVec3) -> bool {
