@@ -79,6 +79,30 @@ impl<'p> Builder<'p> {
         Ok(surface)
     }
 
+    /// The spine and branch surfaces of a surface with creases (`survey::spine`), or None
+    /// when it has none.
+    pub(crate) fn creased(
+        &self,
+        r: &SurfaceRef,
+        scale: f64,
+    ) -> Result<Option<(crate::survey::spine::Spine, Vec<Box<dyn Surface>>)>, CompileError> {
+        let mut outer = Vec::new();
+        let found = compile::compile_spine(self.program, r, &mut |target| {
+            self.dist_child(target, scale, &mut outer)
+        })?;
+        let Some((spine, branches)) = found else {
+            return Ok(None);
+        };
+        let branches = branches
+            .into_iter()
+            .map(|mut b| {
+                b.set_engine(self.engine);
+                Box::new(b) as Box<dyn Surface>
+            })
+            .collect();
+        Ok(Some((spine, branches)))
+    }
+
     fn dist_child(
         &self,
         target: &SurfaceRef,

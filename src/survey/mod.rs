@@ -6,3 +6,5 @@
 
 pub mod components;
 pub mod sizing;
+pub mod creases;
+pub mod spine;
