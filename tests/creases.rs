@@ -67,7 +67,7 @@ fn ball_with_a_bite() {
     let on_big = |p: DVec3| (p.length() - 1.0).abs();
     let on_small = |p: DVec3| (p.distance(c) - 0.7).abs();
     // The crease circle: x = 0.71875, radius √(1 − 0.71875²), found from the spheres alone.
-    let xc = (1.0 - 0.49 + 0.64) / 1.6;
+    let xc: f64 = (1.0 - 0.49 + 0.64) / 1.6;
     let rc = (1.0 - xc * xc).sqrt();
     let mut angles: Vec<f64> = m
         .mesh
@@ -307,7 +307,7 @@ fn random_csg_trees_mesh_right_or_refuse() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(6);
     let step = 0.1;
-    let (mut meshed, mut refused, mut empty) = (0, 0, 0);
+    let (mut meshed, mut refused, mut empty, mut skipped) = (0, 0, 0, 0);
     for case in 0..cases {
         let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ (case + 1).wrapping_mul(0x1000_0001));
         let n = 2 + (rng.next() as usize) % 4;
@@ -319,8 +319,16 @@ fn random_csg_trees_mesh_right_or_refuse() {
         let def = &program.meshes[0];
         let f = RefCell::new(build(&program, &def.surface, step).expect("compiles"));
         let (lo, hi) = def.bbox.expect("a box");
-        let truth = solid_count(|p| f.borrow_mut().value(p), lo, hi, 200);
+        // The reference at two grids: where they disagree a feature is thinner than the grid
+        // (a sliver, a near-tangency), the case is not in general position, and it is skipped.
+        let truth = solid_count(|p| f.borrow_mut().value(p), lo, hi, 160);
+        let finer = solid_count(|p| f.borrow_mut().value(p), lo, hi, 240);
         assert!(!truth.touches_box);
+        if truth != finer {
+            eprintln!("case {case} skipped: the voxel counts at two grids disagree");
+            skipped += 1;
+            continue;
+        }
         match mesh_source(&source) {
             Ok(m) if m[0].mesh.triangles.is_empty() => {
                 assert_eq!(truth.components, 0, "case {case}: nothing meshed\n{source}");
@@ -347,5 +355,8 @@ fn random_csg_trees_mesh_right_or_refuse() {
             }
         }
     }
-    eprintln!("random CSG: {meshed} meshed, {refused} refused, {empty} empty of {cases}");
+    eprintln!(
+        "random CSG: {meshed} meshed, {refused} refused, {empty} empty, {skipped} skipped of {cases}"
+    );
+    assert!(meshed >= refused, "most cases should mesh");
 }

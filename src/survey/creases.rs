@@ -174,13 +174,28 @@ pub fn mesh_creased(
         traced: Vec::new(),
         near: HashMap::new(),
     };
+    let trace = std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0");
     let cells = t.cells(whole)?;
+    if trace {
+        eprintln!(
+            "creases: {} forms, {} cells where two may meet",
+            t.c.form_count(),
+            cells.len()
+        );
+    }
     for (cell_lo, cell_hi, zero) in &cells {
         for (a, &i) in zero.iter().enumerate() {
             for &j in &zero[a + 1..] {
                 if let Some(seed) = t.seed(i, j, *cell_lo, *cell_hi)? {
                     if !t.covered(i, j, seed) {
                         let traced = t.trace(i, j, seed)?;
+                        if trace {
+                            eprintln!(
+                                "creases: forms {i} and {j} from {seed}: {} points, ends {:?}",
+                                traced.points.len(),
+                                traced.ends
+                            );
+                        }
                         t.remember(&traced);
                         t.traced.push(traced);
                     }
@@ -235,6 +250,9 @@ pub fn mesh_creased(
             continue;
         }
         let loops = chain(polys, &t.corners)?;
+        if trace {
+            eprintln!("creases: piece of form {form}: {} loop(s)", loops.len());
+        }
         let at = loops[0][0];
         let input = MarchInput {
             step,
@@ -273,20 +291,27 @@ pub fn mesh_creased(
 
 /// The meshes as one, vertices with bit-identical positions merged (the crease vertices the
 /// pieces share), in order of first appearance.
+/// A vertex shared by pieces gets the normalised sum of their normals, which agrees with
+/// every triangle around it wherever the crease is not a fold (normals less than 180° apart).
 fn merge(parts: &[Mesh]) -> Mesh {
     let mut out = Mesh::default();
     let mut index: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut shared = Vec::new();
     for part in parts {
         let ids: Vec<u32> = part
             .vertices
             .iter()
             .zip(&part.normals)
             .map(|(v, n)| {
-                *index.entry(bits(*v)).or_insert_with(|| {
+                let id = *index.entry(bits(*v)).or_insert_with(|| {
                     out.vertices.push(*v);
-                    out.normals.push(*n);
+                    out.normals.push(DVec3::ZERO);
+                    shared.push(0u32);
                     (out.vertices.len() - 1) as u32
-                })
+                });
+                out.normals[id as usize] += *n;
+                shared[id as usize] += 1;
+                id
             })
             .collect();
         out.triangles.extend(
@@ -294,6 +319,11 @@ fn merge(parts: &[Mesh]) -> Mesh {
                 .iter()
                 .map(|t| t.map(|k| ids[k as usize])),
         );
+    }
+    for (n, count) in out.normals.iter_mut().zip(shared) {
+        if count > 1 {
+            *n = n.normalize_or(*n);
+        }
     }
     out
 }
