@@ -248,8 +248,12 @@ fn primitive(rng: &mut Rng) -> String {
         rng.range(-0.8, 0.8),
     );
     // A random turn: Rodrigues' matrix of a random axis and angle.
-    let axis = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0))
-        .normalize_or(DVec3::Z);
+    let axis = DVec3::new(
+        rng.range(-1.0, 1.0),
+        rng.range(-1.0, 1.0),
+        rng.range(-1.0, 1.0),
+    )
+    .normalize_or(DVec3::Z);
     let m = glam::DMat3::from_axis_angle(axis, rng.range(0.0, std::f64::consts::PI));
     let row = |k: usize| {
         let r = m.row(k);
@@ -351,6 +355,10 @@ fn random_csg_trees_mesh_right_or_refuse() {
             Err(d) => {
                 assert_eq!(d[0].code, "E0601", "case {case}: {d:?}");
                 eprintln!("case {case} refused: {:?}", d[0].notes);
+                if let Some(dir) = std::env::var_os("SURFC_CSG_DUMP") {
+                    let path = std::path::Path::new(&dir).join(format!("case{case}.surf"));
+                    std::fs::write(path, &source).expect("writes the refused case");
+                }
                 refused += 1;
             }
         }

@@ -28,9 +28,14 @@ pub(super) fn creased_of(
     let Some((spine, branches)) = builder.creased(&def.surface, def.step).map_err(Ok)? else {
         return Ok(None);
     };
-    Creased::new(spine, branches)
-        .map(Some)
-        .map_err(|e| Err(messages::mesh_failed(&def.name, def.span, &e.to_string(), None)))
+    Creased::new(spine, branches).map(Some).map_err(|e| {
+        Err(messages::mesh_failed(
+            &def.name,
+            def.span,
+            &e.to_string(),
+            None,
+        ))
+    })
 }
 
 /// Meshes a block crease by crease in its box (see the module documentation).

@@ -30,9 +30,9 @@ use super::sizing::Sizing;
 use super::spine::Creased;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
+use crate::solve::SurfacePoint;
 use crate::solve::curve::min_norm_step;
 use crate::solve::surfacepoint::tangent_frame;
-use crate::solve::SurfacePoint;
 use crate::surface::{Surface, ValueGrad};
 
 /// Settings of the crease search. Lengths are multiples of the step.
@@ -56,6 +56,10 @@ pub struct CreaseSettings {
     /// Normals closer to parallel than this sine make a tangential contact, not a crease.
     /// Default 1e-3.
     pub tangent_sine: f64,
+    /// The shortest crease between two corners, and the shortest polygon edge the pieces
+    /// march with. Default 0.02: shorter, two corners nearly coincide (four pieces nearly
+    /// meet at a point).
+    pub shortest: f64,
     /// Most octree cells bounded. Default 2 000 000.
     pub max_cells: usize,
     /// Most tracing points of one crease. Default 1 000 000.
@@ -71,6 +75,7 @@ impl Default for CreaseSettings {
             region: 1e-6,
             covered: 0.5,
             tangent_sine: 1e-3,
+            shortest: 0.02,
             max_cells: 2_000_000,
             max_points: 1_000_000,
         }
@@ -88,13 +93,15 @@ pub enum CreaseError {
         "two pieces of the surface touch tangentially at {at} (their normals are parallel, sine {sine:.1e}): the crease there cannot be traced"
     )]
     Tangent { at: DVec3, sine: f64 },
-    #[error("{pieces} smooth pieces meet at {at}: a corner of more than three pieces cannot be meshed")]
+    #[error(
+        "{pieces} smooth pieces meet at {at}: a corner of more than three pieces cannot be meshed"
+    )]
     SingularCorner { at: DVec3, pieces: usize },
     #[error("a crease ends near {at} without a corner where a third piece begins")]
     Lost { at: DVec3 },
     #[error("a crease leaves the box at {at}: the box must hold every crease of the surface")]
     LeavesBox { at: DVec3 },
-    #[error("a crease near {at} is {length:.3e} long, shorter than a quarter of the step")]
+    #[error("a crease near {at} is {length:.3e} long: two of its corners nearly coincide")]
     Short { at: DVec3, length: f64 },
     #[error("a crease near {at} did not close within {points} tracing points")]
     TooLong { at: DVec3, points: usize },
@@ -203,6 +210,29 @@ pub fn mesh_creased(
             }
         }
     }
+    // Every corner ends three creases; one that no seed found (shorter than a cell's reach)
+    // is traced from the corner.
+    let mut next = 0;
+    while next < t.corners.len() {
+        let (at, [a, b, c]) = t.corners[next];
+        for (i, j) in [(a, b), (a, c), (b, c)] {
+            let known = t.traced.iter().any(|tr| {
+                tr.forms == (i, j) || tr.forms == (j, i)
+            } && tr.ends.is_some_and(|(s, e)| s == next || e == next));
+            if !known && let Some(traced) = t.from_corner(i, j, next)? {
+                if trace {
+                    eprintln!(
+                        "creases: forms {i} and {j} from the corner at {at}: {} points, ends {:?}",
+                        traced.points.len(),
+                        traced.ends
+                    );
+                }
+                t.remember(&traced);
+                t.traced.push(traced);
+            }
+        }
+        next += 1;
+    }
     let tolerance = marching
         .tolerance
         .unwrap_or(march_settings.tolerance * step);
@@ -220,8 +250,8 @@ pub fn mesh_creased(
     for tr in &traced {
         let poly = t.resample(tr, &sizing, min_edge)?;
         let (i, j) = tr.forms;
-        let left_i = t.left_side(i, j, &poly)?;
-        let left_j = t.left_side(j, i, &poly)?;
+        let left_i = t.left_side(i, j, &tr.points)?;
+        let left_j = t.left_side(j, i, &tr.points)?;
         if left_i == left_j {
             return Err(CreaseError::Sides { at: poly[0] });
         }
@@ -244,6 +274,10 @@ pub fn mesh_creased(
         ..CreasedMesh::default()
     };
     let mut limit = marching.max_triangles;
+    let piece_settings = MarchSettings {
+        polygon_edge_min: march_settings.polygon_edge_min.min(settings.shortest),
+        ..*march_settings
+    };
     let mut parts = Vec::new();
     for (form, polys) in sides.into_iter().enumerate() {
         if polys.is_empty() {
@@ -263,7 +297,7 @@ pub fn mesh_creased(
             tolerance: marching.tolerance,
             uniform: marching.uniform,
         };
-        let marched = march::march_verified(&mut t.c.piece(form), &input, march_settings, None)
+        let marched = march::march_verified(&mut t.c.piece(form), &input, &piece_settings, None)
             .map_err(|source| CreaseError::March { at, source })?;
         t.check_piece(form, &marched.mesh)?;
         out.max_chord_error = out.max_chord_error.max(marched.max_chord_error);
@@ -279,7 +313,12 @@ pub fn mesh_creased(
     };
     let found =
         components::mesh_components_beside(whole, marching, bbox, march_settings, search, &pieces)?;
-    check_smooth(t.c, &found.mesh, pieces.triangles.len(), settings.tie * step)?;
+    check_smooth(
+        t.c,
+        &found.mesh,
+        pieces.triangles.len(),
+        settings.tie * step,
+    )?;
     out.max_chord_error = out.max_chord_error.max(found.max_chord_error);
     out.warnings
         .extend(found.warnings.iter().map(ToString::to_string));
@@ -288,6 +327,9 @@ pub fn mesh_creased(
     out.mesh = merge(&[found.mesh]);
     Ok(out)
 }
+
+/// How many traced points of a crease are probed for the side its pieces lie on.
+const PROBES: usize = 8;
 
 /// The meshes as one, vertices with bit-identical positions merged (the crease vertices the
 /// pieces share), in order of first appearance.
@@ -314,11 +356,8 @@ fn merge(parts: &[Mesh]) -> Mesh {
                 id
             })
             .collect();
-        out.triangles.extend(
-            part.triangles
-                .iter()
-                .map(|t| t.map(|k| ids[k as usize])),
-        );
+        out.triangles
+            .extend(part.triangles.iter().map(|t| t.map(|k| ids[k as usize])));
     }
     for (n, count) in out.normals.iter_mut().zip(shared) {
         if count > 1 {
@@ -424,11 +463,7 @@ impl Tracer<'_> {
                 continue;
             }
             let zero: Vec<usize> = (0..self.c.form_count())
-                .filter(|&i| {
-                    self.c
-                        .form_bound(i, lo, hi)
-                        .is_none_or(|b| b.contains(0.0))
-                })
+                .filter(|&i| self.c.form_bound(i, lo, hi).is_none_or(|b| b.contains(0.0)))
                 .collect();
             if zero.len() < 2 {
                 continue;
@@ -561,7 +596,8 @@ impl Tracer<'_> {
                 return None;
             }
             p -= delta;
-            if delta.length() <= (1e-13 * self.step).max(4.0 * f64::EPSILON * p.abs().max_element()) {
+            if delta.length() <= (1e-13 * self.step).max(4.0 * f64::EPSILON * p.abs().max_element())
+            {
                 return Some(p);
             }
         }
@@ -580,7 +616,7 @@ impl Tracer<'_> {
 
     /// The crease of forms i and j through `seed`, both ways, to its corners or round.
     fn trace(&mut self, i: usize, j: usize, seed: DVec3) -> Result<Traced, CreaseError> {
-        let (forward, end) = self.walk(i, j, seed, 1.0)?;
+        let (forward, end) = self.walk(i, j, seed, 1.0, false)?;
         let Some(end) = end else {
             return Ok(Traced {
                 forms: (i, j),
@@ -588,7 +624,7 @@ impl Tracer<'_> {
                 ends: None,
             });
         };
-        let (mut backward, start) = self.walk(i, j, seed, -1.0)?;
+        let (mut backward, start) = self.walk(i, j, seed, -1.0, false)?;
         let start = start.ok_or(CreaseError::Lost { at: seed })?;
         backward.reverse();
         backward.extend_from_slice(&forward[1..]);
@@ -599,6 +635,39 @@ impl Tracer<'_> {
         })
     }
 
+    /// The crease of forms i and j that ends at corner `id`, traced from it the way the two
+    /// forms are chosen; None when neither way is (the crease has no length there).
+    fn from_corner(
+        &mut self,
+        i: usize,
+        j: usize,
+        id: usize,
+    ) -> Result<Option<Traced>, CreaseError> {
+        let at = self.corners[id].0;
+        let h = 0.01 * self.s.trace * self.step;
+        for dir in [1.0, -1.0] {
+            let t = dir * self.tangent(i, j, at)?;
+            let y = at + h * t;
+            let Some(q) = self.correct(i, j, y, y, t) else {
+                continue;
+            };
+            let (a, b) = self.pair(i, j, q);
+            let g = a.gradient.length().max(b.gradient.length());
+            let active = self.c.active(q, self.eps(g));
+            if !(active.len() == 2 && active.contains(&i) && active.contains(&j)) {
+                continue;
+            }
+            let (points, end) = self.walk(i, j, at, dir, true)?;
+            let end = end.ok_or(CreaseError::Lost { at })?;
+            return Ok(Some(Traced {
+                forms: (i, j),
+                points,
+                ends: Some((id, end)),
+            }));
+        }
+        Ok(None)
+    }
+
     /// Walks from `seed` along dir·(∇Lᵢ × ∇Lⱼ): the points, and the corner id where it
     /// stopped (None: closed, back at the seed).
     fn walk(
@@ -607,6 +676,7 @@ impl Tracer<'_> {
         j: usize,
         seed: DVec3,
         dir: f64,
+        at_corner: bool,
     ) -> Result<(Vec<DVec3>, Option<usize>), CreaseError> {
         let h0 = self.s.trace * self.step;
         let mut points = vec![seed];
@@ -641,7 +711,9 @@ impl Tracer<'_> {
             let active = self.c.active(q, self.eps(g));
             let on = active.contains(&i) && active.contains(&j);
             if !(on && active.len() == 2) {
-                let corner = self.corner(i, j, p, q)?;
+                // From a corner, the first step's corner is the other end, not the start.
+                let skip = (at_corner && points.len() == 1).then_some(seed);
+                let corner = self.corner(i, j, p, q, skip)?;
                 points.push(self.corners[corner].0);
                 return Ok((points, Some(corner)));
             }
@@ -665,7 +737,14 @@ impl Tracer<'_> {
     /// The corner where the crease of i and j, chosen at p but not (alone) at q, ends: the
     /// point near p where a third form k is zero with them and all three are chosen. Solved
     /// by Newton on (Lᵢ, Lⱼ, Lₖ) to rounding; a corner found before is reused bit for bit.
-    fn corner(&mut self, i: usize, j: usize, p: DVec3, q: DVec3) -> Result<usize, CreaseError> {
+    fn corner(
+        &mut self,
+        i: usize,
+        j: usize,
+        p: DVec3,
+        q: DVec3,
+        skip: Option<DVec3>,
+    ) -> Result<usize, CreaseError> {
         let reach = 2.0 * p.distance(q) + 1e-9 * self.step;
         let mut best: Option<(f64, DVec3, usize, Vec<usize>)> = None;
         for k in 0..self.c.form_count() {
@@ -677,7 +756,7 @@ impl Tracer<'_> {
                     continue;
                 };
                 let d = c.distance(p);
-                if d > reach {
+                if d > reach || skip.is_some_and(|s| s.distance(c) <= 1e-7 * self.step) {
                     continue;
                 }
                 let g = (0..3)
@@ -790,7 +869,10 @@ impl Tracer<'_> {
         }
         let h = h.max(min_edge / 0.8);
         let n = ((total / h).ceil() as usize).max(if closed { 3 } else { 1 });
-        if total / (n as f64) < min_edge {
+        // A crease shorter than the marcher's shortest polygon edge between two corners is
+        // one edge (the pieces march with that limit lowered to `shortest`); shorter still,
+        // the corners nearly coincide and the crease is refused.
+        if total / (n as f64) < min_edge.min(self.s.shortest * self.step) {
             return Err(CreaseError::Short {
                 at: fine[0],
                 length: total,
@@ -802,7 +884,11 @@ impl Tracer<'_> {
             let idx = cumulative.partition_point(|&c| c <= s).clamp(1, segments) - 1;
             let (a, b) = (fine[idx], fine[(idx + 1) % m]);
             let len = cumulative[idx + 1] - cumulative[idx];
-            let w = if len > 0.0 { (s - cumulative[idx]) / len } else { 0.0 };
+            let w = if len > 0.0 {
+                (s - cumulative[idx]) / len
+            } else {
+                0.0
+            };
             let y = a.lerp(b, w);
             let dir = (b - a).normalize_or_zero();
             let c = self
@@ -816,16 +902,48 @@ impl Tracer<'_> {
         Ok(out)
     }
 
-    /// Whether form i's piece lies on the left of the polygon (seen from where ∇Lᵢ points),
-    /// probed a little off its middle edge on both sides; j is the other piece.
-    fn left_side(&mut self, i: usize, j: usize, poly: &[DVec3]) -> Result<bool, CreaseError> {
-        let mid = poly.len() / 2 - usize::from(poly.len() % 2 == 0 && poly.len() > 2);
-        let (a, b) = (poly[mid], poly[(mid + 1) % poly.len()]);
-        let d = (b - a).normalize_or_zero();
-        let o = 0.5 * (a + b);
-        let n = self.c.form(i, o).gradient.normalize_or_zero();
-        let w = n.cross(d);
-        let eps = 0.05 * a.distance(b);
+    /// Whether form i's piece lies on the left of the crease walked as traced (seen from where
+    /// ∇Lᵢ points); j is the other piece. Probed a little off the crease on both sides at up to
+    /// `PROBES` of its traced points (corners excepted): the probes that decide must agree, and
+    /// one at least must decide.
+    fn left_side(&mut self, i: usize, j: usize, fine: &[DVec3]) -> Result<bool, CreaseError> {
+        let mut found: Option<bool> = None;
+        let inner = fine.len().saturating_sub(2).max(1);
+        let every = inner.div_ceil(PROBES).max(1);
+        for k in (1..fine.len().saturating_sub(1)).step_by(every) {
+            match self.probe(i, j, fine[k], fine[k + 1]) {
+                Some(left) if found.is_some_and(|f| f != left) => {
+                    return Err(CreaseError::Sides { at: fine[k] });
+                }
+                Some(left) => found = Some(left),
+                None => {}
+            }
+        }
+        if found.is_none() && fine.len() == 2 {
+            // A crease of one tracing step (corner to corner): probed at its middle.
+            let (a, b) = (fine[0], fine[1]);
+            let m = a.lerp(b, 0.5);
+            if let Some(o) = self.correct(i, j, m, m, (b - a).normalize_or_zero()) {
+                found = self.probe(i, j, o, b);
+            }
+        }
+        found.ok_or(CreaseError::Sides {
+            at: fine[fine.len() / 2],
+        })
+    }
+
+    /// At crease vertex o (followed by b): on which side of the crease, walked towards b,
+    /// form i alone is chosen on its own surface; None when the probes do not tell.
+    fn probe(&mut self, i: usize, j: usize, o: DVec3, b: DVec3) -> Option<bool> {
+        // At a vertex (on the crease, unlike an edge's midpoint, which its sagitta moves off
+        // by more than a short probe), along the crease's own tangent.
+        let (vi, vj) = self.pair(i, j, o);
+        let mut d = vi.gradient.cross(vj.gradient).normalize_or_zero();
+        if d.dot(b - o) < 0.0 {
+            d = -d;
+        }
+        let w = vi.gradient.normalize_or_zero().cross(d);
+        let eps = 0.01 * o.distance(b);
         let mut side = [false; 2];
         for (s, sign) in [1.0, -1.0].into_iter().enumerate() {
             let mut q = o + sign * eps * w;
@@ -838,12 +956,12 @@ impl Tracer<'_> {
                 q -= vg.gradient * (vg.value / g2);
             }
             let active = self.c.active(q, 0.0);
-            side[s.min(1)] = active.contains(&i) && !active.contains(&j);
+            side[s] = active.contains(&i) && !active.contains(&j);
         }
         match side {
-            [true, false] => Ok(true),
-            [false, true] => Ok(false),
-            _ => Err(CreaseError::Sides { at: o }),
+            [true, false] => Some(true),
+            [false, true] => Some(false),
+            _ => None,
         }
     }
 

@@ -5,6 +5,6 @@
 //! their answers as inputs.
 
 pub mod components;
-pub mod sizing;
 pub mod creases;
+pub mod sizing;
 pub mod spine;

@@ -48,7 +48,10 @@ pub struct Form {
 impl Form {
     fn key(&self) -> Vec<u64> {
         // +0 and −0 are one coefficient.
-        self.coefficients.iter().map(|c| (c + 0.0).to_bits()).collect()
+        self.coefficients
+            .iter()
+            .map(|c| (c + 0.0).to_bits())
+            .collect()
     }
 
     fn constant(&self) -> f64 {
@@ -203,7 +206,11 @@ impl Spine {
                 Term::Neg(a) => map(&terms[a], -1.0),
                 Term::Scale(s, a) => map(&terms[a], s),
                 Term::Add(a, b) | Term::Sub(a, b) => {
-                    let s = if matches!(t, Term::Sub(..)) { -1.0 } else { 1.0 };
+                    let s = if matches!(t, Term::Sub(..)) {
+                        -1.0
+                    } else {
+                        1.0
+                    };
                     let mut out = Vec::new();
                     for (fa, va) in &terms[a] {
                         for (fb, vb) in &terms[b] {
