@@ -30,6 +30,9 @@ pub(crate) enum BuildError {
     },
 }
 
+/// A spine and its branch surfaces (`survey::spine`).
+pub(crate) type Spined = (crate::survey::spine::Spine, Vec<Box<dyn Surface>>);
+
 /// An axis-aligned box (lo, hi).
 pub(crate) type Bbox = Option<(DVec3, DVec3)>;
 
@@ -85,7 +88,7 @@ impl<'p> Builder<'p> {
         &self,
         r: &SurfaceRef,
         scale: f64,
-    ) -> Result<Option<(crate::survey::spine::Spine, Vec<Box<dyn Surface>>)>, CompileError> {
+    ) -> Result<Option<Spined>, CompileError> {
         let mut outer = Vec::new();
         let found = compile::compile_spine(self.program, r, &mut |target| {
             self.dist_child(target, scale, &mut outer)

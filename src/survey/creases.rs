@@ -219,7 +219,7 @@ pub fn mesh_creased(
             let known = t.traced.iter().any(|tr| {
                 tr.forms == (i, j) || tr.forms == (j, i)
             } && tr.ends.is_some_and(|(s, e)| s == next || e == next));
-            if !known && let Some(traced) = t.from_corner(i, j, next)? {
+            if !known && let Some(traced) = t.trace_from_corner(i, j, next)? {
                 if trace {
                     eprintln!(
                         "creases: forms {i} and {j} from the corner at {at}: {} points, ends {:?}",
@@ -245,8 +245,7 @@ pub fn mesh_creased(
     let traced = std::mem::take(&mut t.traced);
     let mut polygons = Vec::with_capacity(traced.len());
     // Per form: its directed polygons with their end corners.
-    let mut sides: Vec<Vec<(Vec<DVec3>, Option<(usize, usize)>)>> =
-        vec![Vec::new(); t.c.form_count()];
+    let mut sides: Vec<Vec<Side>> = vec![Vec::new(); t.c.form_count()];
     for tr in &traced {
         let poly = t.resample(tr, &sizing, min_edge)?;
         let (i, j) = tr.forms;
@@ -374,7 +373,7 @@ fn bits(p: DVec3) -> [u64; 3] {
 /// Joins one form's directed polygons into closed loops at their corners (the last vertex of
 /// each loop not repeated).
 fn chain(
-    polys: Vec<(Vec<DVec3>, Option<(usize, usize)>)>,
+    polys: Vec<Side>,
     corners: &[(DVec3, [usize; 3])],
 ) -> Result<Vec<Vec<DVec3>>, CreaseError> {
     let mut loops = Vec::new();
@@ -422,6 +421,9 @@ fn chain(
     }
     Ok(loops)
 }
+
+/// A crease polygon walked with its piece on the left, and its end corners (None: closed).
+type Side = (Vec<DVec3>, Option<(usize, usize)>);
 
 /// The state of one crease search.
 struct Tracer<'a> {
@@ -535,7 +537,7 @@ impl Tracer<'_> {
         let (a, b) = self.pair(i, j, p);
         let g = a.gradient.length().max(b.gradient.length());
         let residual = a.value.abs().max(b.value.abs()) / g;
-        if !(residual <= 1e-9 * self.step) || !self.inside(p) {
+        if residual.is_nan() || residual > 1e-9 * self.step || !self.inside(p) {
             return Ok(None);
         }
         let active = self.c.active(p, self.eps(g));
@@ -588,7 +590,7 @@ impl Tracer<'_> {
             let rows = DMat3::from_cols(a.gradient, b.gradient, m).transpose();
             let det = rows.determinant();
             let size = a.gradient.length() * b.gradient.length() * m.length();
-            if !(det.abs() > 1e-12 * size) {
+            if det.is_nan() || det.abs() <= 1e-12 * size {
                 return None;
             }
             let delta = rows.inverse() * DVec3::new(a.value, b.value, m.dot(p - o));
@@ -608,7 +610,7 @@ impl Tracer<'_> {
         let (a, b) = self.pair(i, j, p);
         let c = a.gradient.cross(b.gradient);
         let s = sine(a.gradient, b.gradient);
-        if !(s >= self.s.tangent_sine) {
+        if s.is_nan() || s < self.s.tangent_sine {
             return Err(CreaseError::Tangent { at: p, sine: s });
         }
         Ok(c / c.length())
@@ -637,7 +639,7 @@ impl Tracer<'_> {
 
     /// The crease of forms i and j that ends at corner `id`, traced from it the way the two
     /// forms are chosen; None when neither way is (the crease has no length there).
-    fn from_corner(
+    fn trace_from_corner(
         &mut self,
         i: usize,
         j: usize,
@@ -807,7 +809,7 @@ impl Tracer<'_> {
             let rows = DMat3::from_cols(v[0].gradient, v[1].gradient, v[2].gradient).transpose();
             let det = rows.determinant();
             let size: f64 = v.iter().map(|x| x.gradient.length()).product();
-            if !(det.abs() > 1e-9 * size) {
+            if det.is_nan() || det.abs() <= 1e-9 * size {
                 return None;
             }
             let delta = rows.inverse() * DVec3::new(v[0].value, v[1].value, v[2].value);
@@ -950,7 +952,7 @@ impl Tracer<'_> {
             for _ in 0..8 {
                 let vg = self.c.form(i, q);
                 let g2 = vg.gradient.length_squared();
-                if !(g2 > 0.0) {
+                if g2.is_nan() || g2 <= 0.0 {
                     break;
                 }
                 q -= vg.gradient * (vg.value / g2);
@@ -971,7 +973,7 @@ impl Tracer<'_> {
             let l = self.c.form(form, v);
             let f = self.c.whole(v);
             let distance = (f.value - l.value).abs() / l.gradient.length();
-            if !(distance <= self.s.region * self.step) {
+            if distance.is_nan() || distance > self.s.region * self.step {
                 return Err(CreaseError::LeftPiece { at: v, distance });
             }
         }
