@@ -187,7 +187,17 @@ pub fn compile_surface<E>(
 where
     E: Into<Box<dyn std::error::Error + Send + Sync>>,
 {
-    let lowered = lower_surface(program, r)?;
+    build_lowered(lower_surface(program, r)?, factory)
+}
+
+/// A lowered tape as a surface, its `dist` children built by `factory`.
+fn build_lowered<E>(
+    lowered: Lowered,
+    factory: &mut ChildFactory<'_, E>,
+) -> Result<CompiledSurface, CompileError>
+where
+    E: Into<Box<dyn std::error::Error + Send + Sync>>,
+{
     let mut children = Vec::with_capacity(lowered.children.len());
     for (target, span) in &lowered.children {
         let child = factory(target).map_err(|e| CompileError::Child {
@@ -214,15 +224,7 @@ where
     };
     let mut compiled = Vec::with_capacity(branches.len());
     for lowered in branches {
-        let mut children = Vec::with_capacity(lowered.children.len());
-        for (target, span) in &lowered.children {
-            let child = factory(target).map_err(|e| CompileError::Child {
-                span: *span,
-                source: e.into(),
-            })?;
-            children.push(child);
-        }
-        compiled.push(CompiledSurface::new(lowered.tape, children)?);
+        compiled.push(build_lowered(lowered, factory)?);
     }
     Ok(Some((spine, compiled)))
 }

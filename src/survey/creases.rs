@@ -196,15 +196,7 @@ pub fn mesh_creased(
                 if let Some(seed) = t.seed(i, j, *cell_lo, *cell_hi)? {
                     if !t.covered(i, j, seed) {
                         let traced = t.trace(i, j, seed)?;
-                        if trace {
-                            eprintln!(
-                                "creases: forms {i} and {j} from {seed}: {} points, ends {:?}",
-                                traced.points.len(),
-                                traced.ends
-                            );
-                        }
-                        t.remember(&traced);
-                        t.traced.push(traced);
+                        t.keep(traced, trace, seed);
                     }
                 }
             }
@@ -220,15 +212,7 @@ pub fn mesh_creased(
                 tr.forms == (i, j) || tr.forms == (j, i)
             } && tr.ends.is_some_and(|(s, e)| s == next || e == next));
             if !known && let Some(traced) = t.trace_from_corner(i, j, next)? {
-                if trace {
-                    eprintln!(
-                        "creases: forms {i} and {j} from the corner at {at}: {} points, ends {:?}",
-                        traced.points.len(),
-                        traced.ends
-                    );
-                }
-                t.remember(&traced);
-                t.traced.push(traced);
+                t.keep(traced, trace, at);
             }
         }
         next += 1;
@@ -572,6 +556,20 @@ impl Tracer<'_> {
                 })
             })
         })
+    }
+
+    /// Keeps a traced crease (found from `from`), and says so under `SURFC_TRACE`.
+    fn keep(&mut self, tr: Traced, trace: bool, from: DVec3) {
+        if trace {
+            let (i, j) = tr.forms;
+            eprintln!(
+                "creases: forms {i} and {j} from {from}: {} points, ends {:?}",
+                tr.points.len(),
+                tr.ends
+            );
+        }
+        self.remember(&tr);
+        self.traced.push(tr);
     }
 
     fn remember(&mut self, tr: &Traced) {
