@@ -111,6 +111,19 @@ fn ball_with_a_bite() {
     );
 }
 
+/// The issue's ball with a bite given a `start` and no `box` (before: a 0.38° triangle at
+/// step 0.2, 25 s into the triangle guard at 0.08): a box from interval bounds, then creases.
+#[test]
+fn a_start_without_a_box_gets_a_box_from_intervals() {
+    for step in [0.2, 0.08] {
+        let m = mesh_one(&format!(
+            "surface bite = max(x^2 + y^2 + z^2 - 1, -((x - 0.8)^2 + y^2 + z^2 - 0.49));\n\
+             mesh bite = bite {{ step: {step}; start: (-1, 0, 0); }}\n"
+        ));
+        assert_closed(&m, 2, 20.0);
+    }
+}
+
 /// The checks of M2 for the cube [−1, 1]³ meshed at `step`.
 fn assert_cube(m: &Meshed, step: f64) {
     assert_closed(m, 2, 20.0);

@@ -2,6 +2,8 @@
 //! piece, and the diagnostics when that fails. docs/creases.md has the rules:
 //! - a block with a `box` (and no `front` or `bounds`) is meshed crease by crease in the box;
 //!   with a `start` too, only the connected part of that mesh nearest the start is kept;
+//! - a block with a `start` and no `box` gets a box from interval bounds (`derived_box`) when
+//!   the surface is bounded, and is then meshed as above;
 //! - any other block is marched as before, and its mesh is then checked: a triangle across a
 //!   crease is an error that asks for a `box`.
 
@@ -14,7 +16,7 @@ use crate::march::MarchSettings;
 use crate::mesh::Mesh;
 use crate::sema::program::MeshDef;
 use crate::surface::Surface;
-use crate::survey::components::{Marching, SearchSettings};
+use crate::survey::components::{Marching, SearchSettings, candidate_cells};
 use crate::survey::creases::{self, CreaseError, CreaseSettings, CreasedMesh};
 use crate::survey::spine::Creased;
 
@@ -66,6 +68,38 @@ pub(super) fn mesh(
     }
     Ok(out)
 }
+
+/// A box for a block on a surface with creases that has a `start` and no `box`: the cells of
+/// an octree over ±`DERIVED_REACH` that the interval bound keeps, narrowed a few times, with a
+/// step's margin. None when the surface reaches that far (unbounded) or cannot bound itself;
+/// then the block is marched as before and checked.
+pub(super) fn derived_box(whole: &mut dyn Surface, step: f64) -> Option<(DVec3, DVec3)> {
+    let (mut lo, mut hi) = (DVec3::splat(-DERIVED_REACH), DVec3::splat(DERIVED_REACH));
+    for round in 0..8 {
+        let leaf = (hi - lo).max_element() / 16.0;
+        let (cells, truncated) = candidate_cells(whole, lo, hi, leaf.max(step), 100_000);
+        if truncated || cells.is_empty() {
+            return None;
+        }
+        let (a, b) = cells
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(a, b), c| {
+                (a.min(c.lo), b.max(c.hi))
+            });
+        // Reaching the outer faces: the surface may go on beyond them.
+        if round == 0 && (a.cmple(lo).any() || b.cmpge(hi).any()) {
+            return None;
+        }
+        (lo, hi) = (a, b);
+        if leaf <= step {
+            break;
+        }
+    }
+    Some((lo - DVec3::splat(step), hi + DVec3::splat(step)))
+}
+
+/// How far from the origin a surface with creases and no `box` is searched for its extent.
+const DERIVED_REACH: f64 = 1e3;
 
 /// Checks a mesh marched without the crease search: no triangle across a crease.
 pub(super) fn check(creased: &mut Creased, def: &MeshDef, mesh: &Mesh) -> Result<(), Diagnostic> {

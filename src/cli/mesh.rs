@@ -437,9 +437,16 @@ fn mesh_block(
         Ok(c) => build_failed(c.into()),
         Err(d) => d,
     })?;
-    if let (Some(c), Some(bbox), None, true) =
-        (creased.as_mut(), def.bbox, def.front, def.bounds.is_empty())
-    {
+    let crease_box = match (&creased, def.bbox, def.start) {
+        (Some(_), None, Some(_)) => creases::derived_box(&mut surface, def.step),
+        _ => def.bbox,
+    };
+    if let (Some(c), Some(bbox), None, true) = (
+        creased.as_mut(),
+        crease_box,
+        def.front,
+        def.bounds.is_empty(),
+    ) {
         let out = creases::mesh(c, &mut surface, def, bbox)?;
         return Ok(finish(
             program,
