@@ -30,6 +30,9 @@ pub(crate) enum BuildError {
     },
 }
 
+/// A spine and its branch surfaces (`survey::spine`).
+pub(crate) type Spined = (crate::survey::spine::Spine, Vec<Box<dyn Surface>>);
+
 /// An axis-aligned box (lo, hi).
 pub(crate) type Bbox = Option<(DVec3, DVec3)>;
 
@@ -77,6 +80,30 @@ impl<'p> Builder<'p> {
         })?;
         surface.set_engine(self.engine);
         Ok(surface)
+    }
+
+    /// The spine and branch surfaces of a surface with creases (`survey::spine`), or None
+    /// when it has none.
+    pub(crate) fn creased(
+        &self,
+        r: &SurfaceRef,
+        scale: f64,
+    ) -> Result<Option<Spined>, CompileError> {
+        let mut outer = Vec::new();
+        let found = compile::compile_spine(self.program, r, &mut |target| {
+            self.dist_child(target, scale, &mut outer)
+        })?;
+        let Some((spine, branches)) = found else {
+            return Ok(None);
+        };
+        let branches = branches
+            .into_iter()
+            .map(|mut b| {
+                b.set_engine(self.engine);
+                Box::new(b) as Box<dyn Surface>
+            })
+            .collect();
+        Ok(Some((spine, branches)))
     }
 
     fn dist_child(

@@ -13,6 +13,7 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::build::{self, BuildError, Builder};
+use super::creases;
 use super::load::{Loaded, input_name, is_stdin, load_reported, stderr_color};
 use super::report::{CODE_INPUT, CODE_IO, CODE_USAGE, Failure};
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
@@ -429,6 +430,32 @@ fn mesh_block(
     let mut surface = builder
         .surface(&def.surface, def.step)
         .map_err(|e| build_failed(e.into()))?;
+    let mut creased = creases::creased_of(builder, def).map_err(|e| match e {
+        Ok(c) => build_failed(c.into()),
+        Err(d) => d,
+    })?;
+    let crease_box = match (&creased, def.bbox, def.start) {
+        (Some(_), None, Some(_)) => creases::derived_box(&mut surface, def.step),
+        _ => def.bbox,
+    };
+    if let (Some(c), Some(bbox), None, true) = (
+        creased.as_mut(),
+        crease_box,
+        def.front,
+        def.bounds.is_empty(),
+    ) {
+        let out = creases::mesh(c, &mut surface, def, bbox)?;
+        return Ok(finish(
+            program,
+            source,
+            def,
+            &mut surface,
+            out.mesh,
+            out.max_chord_error,
+            out.warnings,
+            started,
+        ));
+    }
     let mut bounds = Vec::with_capacity(def.bounds.len());
     for &b in &def.bounds {
         bounds.push(
@@ -510,6 +537,9 @@ fn mesh_block(
     };
     let marched = march::march_verified(&mut surface, &input, &settings, Some(progress))
         .map_err(|e| failed(&e))?;
+    if let Some(c) = creased.as_mut() {
+        creases::check(c, def, &marched.mesh)?;
+    }
     warnings.extend(marched.warnings);
     Ok(finish(
         program,

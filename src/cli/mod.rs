@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 pub(crate) mod build;
 mod bytecode;
 mod check;
+mod creases;
 mod eval;
 mod fmt;
 pub(crate) mod load;

@@ -6,6 +6,7 @@
 pub mod ir;
 pub mod lower;
 pub mod regalloc;
+pub mod spine;
 pub mod tape;
 
 use crate::eval::VmError;
@@ -96,6 +97,26 @@ const SPACE_INPUTS: [&str; 3] = ["x", "y", "z"];
 
 /// The tape of surface `r` of `program` (inputs x, y, z).
 pub fn lower_surface(program: &Program, r: &SurfaceRef) -> Result<Lowered, CompileError> {
+    let (lowerer, out) = lower_graph(program, r)?;
+    allocate_space(&lowerer, out)
+}
+
+/// The tape of node `out` of `lowerer`'s graph, inputs x, y, z, with its live `dist` targets.
+fn allocate_space(lowerer: &Lowerer<'_>, out: ir::NodeId) -> Result<Lowered, CompileError> {
+    let names = SPACE_INPUTS.iter().map(|s| s.to_string()).collect();
+    let (tape, live) = regalloc::allocate(&lowerer.graph, &[out], names)?;
+    let children = live
+        .iter()
+        .map(|d| lowerer.dists[d.0 as usize].clone())
+        .collect();
+    Ok(Lowered { tape, children })
+}
+
+/// Surface `r` lowered to the IR: the lowerer (graph and `dist` targets) and the root node.
+fn lower_graph<'p>(
+    program: &'p Program,
+    r: &SurfaceRef,
+) -> Result<(Lowerer<'p>, ir::NodeId), CompileError> {
     let mut lowerer = Lowerer::new(program, Domain::Space);
     let out = match r {
         SurfaceRef::Surface(id) => {
@@ -117,13 +138,25 @@ pub fn lower_surface(program: &Program, r: &SurfaceRef) -> Result<Lowered, Compi
             });
         }
     };
-    let names = SPACE_INPUTS.iter().map(|s| s.to_string()).collect();
-    let (tape, live) = regalloc::allocate(&lowerer.graph, &[out], names)?;
-    let children = live
+    Ok((lowerer, out))
+}
+
+/// The spine of surface `r` (`spine`): None when no `min`, `max` or `abs` switches on it,
+/// else the spine with each branch lowered to its own tape.
+pub fn lower_spine(
+    program: &Program,
+    r: &SurfaceRef,
+) -> Result<Option<(crate::survey::spine::Spine, Vec<Lowered>)>, CompileError> {
+    let (lowerer, out) = lower_graph(program, r)?;
+    let Some(found) = spine::find(&lowerer.graph, out) else {
+        return Ok(None);
+    };
+    let branches = found
+        .branches
         .iter()
-        .map(|d| lowerer.dists[d.0 as usize].clone())
-        .collect();
-    Ok(Lowered { tape, children })
+        .map(|&b| allocate_space(&lowerer, b))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(Some((found.spine, branches)))
 }
 
 /// The tape of patch `id` (inputs u, v; outputs X, Y, Z).
@@ -156,7 +189,17 @@ pub fn compile_surface<E>(
 where
     E: Into<Box<dyn std::error::Error + Send + Sync>>,
 {
-    let lowered = lower_surface(program, r)?;
+    build_lowered(lower_surface(program, r)?, factory)
+}
+
+/// A lowered tape as a surface, its `dist` children built by `factory`.
+fn build_lowered<E>(
+    lowered: Lowered,
+    factory: &mut ChildFactory<'_, E>,
+) -> Result<CompiledSurface, CompileError>
+where
+    E: Into<Box<dyn std::error::Error + Send + Sync>>,
+{
     let mut children = Vec::with_capacity(lowered.children.len());
     for (target, span) in &lowered.children {
         let child = factory(target).map_err(|e| CompileError::Child {
@@ -166,6 +209,26 @@ where
         children.push(child);
     }
     Ok(CompiledSurface::new(lowered.tape, children)?)
+}
+
+/// The spine of surface `r` with each branch compiled (its `dist` children built by
+/// `factory`), or None when the surface has no `min`, `max` or `abs` on its spine.
+pub fn compile_spine<E>(
+    program: &Program,
+    r: &SurfaceRef,
+    factory: &mut ChildFactory<'_, E>,
+) -> Result<Option<(crate::survey::spine::Spine, Vec<CompiledSurface>)>, CompileError>
+where
+    E: Into<Box<dyn std::error::Error + Send + Sync>>,
+{
+    let Some((spine, branches)) = lower_spine(program, r)? else {
+        return Ok(None);
+    };
+    let mut compiled = Vec::with_capacity(branches.len());
+    for lowered in branches {
+        compiled.push(build_lowered(lowered, factory)?);
+    }
+    Ok(Some((spine, compiled)))
 }
 
 /// Checks that surface `r` stays within the compiler's limits without compiling it to

@@ -465,7 +465,7 @@ fn sine(g1: DVec3, g2: DVec3) -> f64 {
 
 /// The minimum-norm Newton step Δ = Jᵀ(JJᵀ)⁻¹F for F = (f1, f2), J = (∇f1; ∇f2); where the
 /// normals are nearly parallel, the pseudo-inverse drops the small singular direction.
-fn min_norm_step(a: ValueGrad, b: ValueGrad, tangent_sine: f64) -> DVec3 {
+pub(crate) fn min_norm_step(a: ValueGrad, b: ValueGrad, tangent_sine: f64) -> DVec3 {
     let (g1, g2) = (a.gradient, b.gradient);
     let (m11, m12, m22) = (g1.dot(g1), g1.dot(g2), g2.dot(g2));
     let det = m11 * m22 - m12 * m12;

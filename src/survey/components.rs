@@ -369,6 +369,27 @@ pub fn mesh_components(
     march_settings: &MarchSettings,
     settings: &SearchSettings,
 ) -> Result<Components, SearchError> {
+    mesh_components_beside(
+        surface,
+        marching,
+        (lo, hi),
+        march_settings,
+        settings,
+        &Mesh::default(),
+    )
+}
+
+/// [`mesh_components`] around a mesh made already (`existing`, the smooth pieces of a surface
+/// with creases): seeds it covers start nothing. The result's mesh begins with `existing`;
+/// its component count and seeds are those of the new components only.
+pub fn mesh_components_beside(
+    surface: &mut dyn Surface,
+    marching: Marching,
+    (lo, hi): (DVec3, DVec3),
+    march_settings: &MarchSettings,
+    settings: &SearchSettings,
+    existing: &Mesh,
+) -> Result<Components, SearchError> {
     let step = marching.step;
     let max_triangles = marching.max_triangles;
     if !(step.is_finite() && step > 0.0) {
@@ -392,6 +413,8 @@ pub fn mesh_components(
         out: Components::default(),
         small: Vec::new(),
     };
+    let Search { cover, out, .. } = &mut search;
+    cover.add(&mut out.mesh, existing);
     if truncated {
         search.out.warnings.push(Warning::CellLimit {
             cells: settings.max_cells,

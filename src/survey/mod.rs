@@ -5,4 +5,6 @@
 //! their answers as inputs.
 
 pub mod components;
+pub mod creases;
 pub mod sizing;
+pub mod spine;

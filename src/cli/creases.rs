@@ -1,0 +1,170 @@
+//! Mesh blocks on surfaces with creases (`survey::creases`): which blocks are meshed piece by
+//! piece, and the diagnostics when that fails. docs/creases.md has the rules:
+//! - a block with a `box` (and no `front` or `bounds`) is meshed crease by crease in the box;
+//!   with a `start` too, only the connected part of that mesh nearest the start is kept;
+//! - a block with a `start` and no `box` gets a box from interval bounds (`derived_box`) when
+//!   the surface is bounded, and is then meshed as above;
+//! - any other block is marched as before, and its mesh is then checked: a triangle across a
+//!   crease is an error that asks for a `box`.
+
+use glam::DVec3;
+
+use super::build::Builder;
+use crate::compile::CompileError;
+use crate::diag::{Diagnostic, messages};
+use crate::march::MarchSettings;
+use crate::mesh::Mesh;
+use crate::sema::program::MeshDef;
+use crate::surface::Surface;
+use crate::survey::components::{Marching, SearchSettings, candidate_cells};
+use crate::survey::creases::{self, CreaseError, CreaseSettings, CreasedMesh};
+use crate::survey::spine::Creased;
+
+const HELP: &str = "give the mesh a `box` that holds the whole surface (and no `front`): a surface with creases is then meshed piece by piece up to its creases";
+
+/// The creased form of the block's surface, or None when its spine has no switch.
+pub(super) fn creased_of(
+    builder: &Builder,
+    def: &MeshDef,
+) -> Result<Option<Creased>, Result<CompileError, Diagnostic>> {
+    let Some((spine, branches)) = builder.creased(&def.surface, def.step).map_err(Ok)? else {
+        return Ok(None);
+    };
+    Creased::new(spine, branches).map(Some).map_err(|e| {
+        Err(messages::mesh_failed(
+            &def.name,
+            def.span,
+            &e.to_string(),
+            None,
+        ))
+    })
+}
+
+/// Meshes a block crease by crease in its box (see the module documentation).
+pub(super) fn mesh(
+    creased: &mut Creased,
+    whole: &mut dyn Surface,
+    def: &MeshDef,
+    bbox: (DVec3, DVec3),
+) -> Result<CreasedMesh, Diagnostic> {
+    let marching = Marching {
+        step: def.step,
+        max_triangles: def.max_triangles,
+        tolerance: def.tolerance,
+        uniform: def.uniform,
+    };
+    let mut out = creases::mesh_creased(
+        creased,
+        whole,
+        marching,
+        bbox,
+        &MarchSettings::default(),
+        &SearchSettings::default(),
+        &CreaseSettings::default(),
+    )
+    .map_err(|e| failed(def, &e))?;
+    if let Some(start) = def.start {
+        out.mesh = part_nearest(&out.mesh, start);
+    }
+    Ok(out)
+}
+
+/// A box for a block on a surface with creases that has a `start` and no `box`: the cells of
+/// an octree over ±`DERIVED_REACH` that the interval bound keeps, narrowed a few times, with a
+/// step's margin. None when the surface reaches that far (unbounded) or cannot bound itself;
+/// then the block is marched as before and checked.
+pub(super) fn derived_box(whole: &mut dyn Surface, step: f64) -> Option<(DVec3, DVec3)> {
+    let (mut lo, mut hi) = (DVec3::splat(-DERIVED_REACH), DVec3::splat(DERIVED_REACH));
+    for round in 0..8 {
+        let leaf = (hi - lo).max_element() / 16.0;
+        let (cells, truncated) = candidate_cells(whole, lo, hi, leaf.max(step), 100_000);
+        if truncated || cells.is_empty() {
+            return None;
+        }
+        let (a, b) = cells
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(a, b), c| {
+                (a.min(c.lo), b.max(c.hi))
+            });
+        // Reaching the outer faces: the surface may go on beyond them.
+        if round == 0 && (a.cmple(lo).any() || b.cmpge(hi).any()) {
+            return None;
+        }
+        (lo, hi) = (a, b);
+        if leaf <= step {
+            break;
+        }
+    }
+    Some((lo - DVec3::splat(step), hi + DVec3::splat(step)))
+}
+
+/// How far from the origin a surface with creases and no `box` is searched for its extent.
+const DERIVED_REACH: f64 = 1e3;
+
+/// Checks a mesh marched without the crease search: no triangle across a crease.
+pub(super) fn check(creased: &mut Creased, def: &MeshDef, mesh: &Mesh) -> Result<(), Diagnostic> {
+    creases::check_one_piece_each(creased, mesh, def.step, &CreaseSettings::default())
+        .map_err(|e| failed(def, &e))
+}
+
+fn failed(def: &MeshDef, e: &CreaseError) -> Diagnostic {
+    let help = match e {
+        CreaseError::MissedCrease { .. } | CreaseError::LeavesBox { .. } => Some(HELP),
+        CreaseError::Tangent { .. } | CreaseError::SingularCorner { .. } => Some(
+            "move the parts a little apart or into each other: where pieces touch or meet more than three at a point, the crease has no direction",
+        ),
+        CreaseError::LeftPiece { .. } | CreaseError::Lost { .. } => {
+            Some("a smaller `step` lets the crease search see smaller features")
+        }
+        _ => None,
+    };
+    messages::mesh_failed(&def.name, def.span, &e.to_string(), help)
+}
+
+/// The edge-connected part of `mesh` that holds the vertex nearest `start`.
+fn part_nearest(mesh: &Mesh, start: DVec3) -> Mesh {
+    let Some(first) = (0..mesh.vertices.len()).min_by(|&a, &b| {
+        let (da, db) = (
+            mesh.vertices[a].distance_squared(start),
+            mesh.vertices[b].distance_squared(start),
+        );
+        da.total_cmp(&db)
+    }) else {
+        return mesh.clone();
+    };
+    // Union-find over vertices joined by triangles.
+    let mut parent: Vec<usize> = (0..mesh.vertices.len()).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for t in &mesh.triangles {
+        let a = root(&mut parent, t[0] as usize);
+        for &k in &t[1..] {
+            let b = root(&mut parent, k as usize);
+            parent[b] = a;
+        }
+    }
+    let keep = root(&mut parent, first);
+    let mut index = vec![u32::MAX; mesh.vertices.len()];
+    let mut out = Mesh::default();
+    for t in &mesh.triangles {
+        if root(&mut parent, t[0] as usize) != keep {
+            continue;
+        }
+        let t = t.map(|k| {
+            let k = k as usize;
+            if index[k] == u32::MAX {
+                index[k] = out.vertices.len() as u32;
+                out.vertices.push(mesh.vertices[k]);
+                out.normals.push(mesh.normals[k]);
+            }
+            index[k]
+        });
+        out.triangles.push(t);
+    }
+    out
+}
