@@ -57,9 +57,22 @@ fn min_angle_deg(m: &Meshed) -> f64 {
 /// M1: a unit ball with a bite of radius 0.7 at (0.8, 0, 0), written with raw `max`.
 #[test]
 fn ball_with_a_bite() {
+    assert_bite("max(x^2 + y^2 + z^2 - 1, -((x - 0.8)^2 + y^2 + z^2 - 0.49))");
+}
+
+/// M1 written with the named boolean and primitives (the language's `difference`, `sphere`,
+/// `translate`): the same checks.
+#[test]
+fn ball_with_a_bite_written_as_a_difference() {
+    assert_bite("difference(sphere(1), translate(sphere(0.7), (0.8, 0, 0)))");
+}
+
+/// The checks of M1 for the unit ball with a bite of radius 0.7 at (0.8, 0, 0), written as
+/// `formula`, at step 0.08.
+fn assert_bite(formula: &str) {
     let step = 0.08;
     let m = mesh_one(&format!(
-        "surface bite = max(x^2 + y^2 + z^2 - 1, -((x - 0.8)^2 + y^2 + z^2 - 0.49));\n\
+        "surface bite = {formula};\n\
          mesh bite = bite {{ step: {step}; box: (-1.5, -1.5, -1.5) .. (1.5, 1.5, 1.5); }}\n"
     ));
     assert_closed(&m, 2, 20.0);
@@ -193,14 +206,40 @@ fn cube_of_planes() {
     assert_cube(&m, step);
 }
 
+/// M2 written with the `box` primitive.
+#[test]
+fn cube_primitive() {
+    let step = 0.15;
+    let m = mesh_one(&format!(
+        "surface cube = box((-1, -1, -1), (1, 1, 1));\n\
+         mesh cube = cube {{ step: {step}; box: (-1.5, -1.5, -1.5) .. (1.5, 1.5, 1.5); }}\n"
+    ));
+    assert_cube(&m, step);
+}
+
 /// M3: a plate with two cylindrical holes: χ = −2 (genus 2), its extent exactly the plate.
 #[test]
 fn plate_with_two_holes() {
-    let m = mesh_one(
-        "surface plate = max(max(max(abs(x) - 2, abs(y) - 1), abs(z) - 0.25),\n\
-           max(-((x - 1)^2 + y^2 - 0.16), -((x + 1)^2 + y^2 - 0.16)));\n\
-         mesh plate = plate { step: 0.1; box: (-2.5, -1.5, -0.5) .. (2.5, 1.5, 0.5); }\n",
+    assert_plate(
+        "max(max(max(abs(x) - 2, abs(y) - 1), abs(z) - 0.25),\n\
+           max(-((x - 1)^2 + y^2 - 0.16), -((x + 1)^2 + y^2 - 0.16)))",
     );
+}
+
+/// M3 as users write it: `difference(box, translate(cylinder), translate(cylinder))`.
+#[test]
+fn plate_with_two_holes_written_as_a_difference() {
+    assert_plate(
+        "difference(box((-2, -1, -0.25), (2, 1, 0.25)),\n\
+           translate(cylinder(0.4, 1), (1, 0, 0)), translate(cylinder(0.4, 1), (-1, 0, 0)))",
+    );
+}
+
+fn assert_plate(formula: &str) {
+    let m = mesh_one(&format!(
+        "surface plate = {formula};\n\
+         mesh plate = plate {{ step: 0.1; box: (-2.5, -1.5, -0.5) .. (2.5, 1.5, 0.5); }}\n",
+    ));
     assert_closed(&m, -2, 20.0);
     let v = &m.mesh.vertices;
     let lo = v.iter().fold(DVec3::INFINITY, |a, b| a.min(*b));
@@ -209,14 +248,19 @@ fn plate_with_two_holes() {
     assert_eq!(hi, DVec3::new(2.0, 1.0, 0.25));
 }
 
-/// M3: a ball joined with a torus through it: χ = 2.
+/// M3: a ball joined with a torus through it: χ = 2, raw and as `union(sphere, torus)`.
 #[test]
 fn ball_and_torus() {
-    let m = mesh_one(
-        "surface s = min(x^2 + y^2 + z^2 - 1, (sqrt(x^2 + y^2) - 1.2)^2 + z^2 - 0.09);\n\
-         mesh s = s { step: 0.1; box: (-2, -2, -1.5) .. (2, 2, 1.5); }\n",
-    );
-    assert_closed(&m, 2, 20.0);
+    for formula in [
+        "min(x^2 + y^2 + z^2 - 1, (sqrt(x^2 + y^2) - 1.2)^2 + z^2 - 0.09)",
+        "union(sphere(1), torus(1.2, 0.3))",
+    ] {
+        let m = mesh_one(&format!(
+            "surface s = {formula};\n\
+             mesh s = s {{ step: 0.1; box: (-2, -2, -1.5) .. (2, 2, 1.5); }}\n",
+        ));
+        assert_closed(&m, 2, 20.0);
+    }
 }
 
 /// A ball far from the rest has no crease: it is found and meshed by the component search

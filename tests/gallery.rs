@@ -223,25 +223,8 @@ fn summary(m: &Meshed) -> String {
 /// Example files whose meshes form one coherent net: drawn together in one picture.
 const NETS: &[&str] = &["two_surfaces", "g2_set"];
 
-/// The first line of an example that waits for the crease meshing of issue 12: it is left out
-/// of the summaries and pictures, and `awaiting_creases_mesh_right_or_fail` checks that it
-/// either meshes right (then remove the line) or fails with E0601, never a wrong mesh.
-const AWAITING_CREASES: &str = "// needs crease meshing (issue 12)";
-
-fn awaits_creases(path: &Path) -> bool {
-    std::fs::read_to_string(path).is_ok_and(|s| s.starts_with(AWAITING_CREASES))
-}
-
-/// The example files that mesh today, sorted.
-fn examples() -> Vec<PathBuf> {
-    all_examples()
-        .into_iter()
-        .filter(|p| !awaits_creases(p))
-        .collect()
-}
-
 /// Every example file, sorted.
-fn all_examples() -> Vec<PathBuf> {
+fn examples() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap()
@@ -304,9 +287,6 @@ fn assert_passes(path: &Path, m: &Meshed) {
 #[test]
 fn gallery() {
     insta::glob!("../examples", "*.surf", |path| {
-        if awaits_creases(path) {
-            return;
-        }
         let (source, meshed) = mesh_example(path);
         let mut report = String::new();
         for m in &meshed {
@@ -317,36 +297,6 @@ fn gallery() {
         let _ = write!(snapshot, "{source}\n---\n{report}");
         insta::assert_snapshot!(snapshot);
     });
-}
-
-/// The examples that wait for crease meshing: each mesh passes every check of the gallery, or
-/// the file fails with E0601 (a mesh that could not be completed) — never a wrong mesh
-/// reported as success.
-#[test]
-fn awaiting_creases_mesh_right_or_fail() {
-    let waiting: Vec<PathBuf> = all_examples()
-        .into_iter()
-        .filter(|p| awaits_creases(p))
-        .collect();
-    for path in waiting {
-        let source = std::fs::read_to_string(&path).unwrap();
-        match mesh_source(&source) {
-            Ok(meshed) => {
-                for m in &meshed {
-                    assert_passes(&path, m);
-                }
-                println!(
-                    "{} meshes right now: remove its `{AWAITING_CREASES}` line",
-                    path.display()
-                );
-            }
-            Err(diags) => assert!(
-                diags.iter().all(|d| d.code == "E0601"),
-                "{}: {diags:#?}",
-                path.display()
-            ),
-        }
-    }
 }
 
 /// The pictures of docs/gallery.md: one per mesh block (one per file for the files whose

@@ -16,7 +16,7 @@ use crate::march::MarchSettings;
 use crate::mesh::Mesh;
 use crate::sema::program::MeshDef;
 use crate::surface::Surface;
-use crate::survey::components::{Marching, SearchSettings, candidate_cells};
+use crate::survey::components::{Candidates, Marching, SearchSettings, surface_cells};
 use crate::survey::creases::{self, CreaseError, CreaseSettings, CreasedMesh};
 use crate::survey::spine::Creased;
 
@@ -77,7 +77,9 @@ pub(super) fn derived_box(whole: &mut dyn Surface, step: f64) -> Option<(DVec3, 
     let (mut lo, mut hi) = (DVec3::splat(-DERIVED_REACH), DVec3::splat(DERIVED_REACH));
     for round in 0..8 {
         let leaf = (hi - lo).max_element() / 16.0;
-        let (cells, truncated) = candidate_cells(whole, lo, hi, leaf.max(step), 100_000);
+        let Candidates {
+            cells, truncated, ..
+        } = surface_cells(whole, lo, hi, leaf.max(step), 100_000);
         if truncated || cells.is_empty() {
             return None;
         }

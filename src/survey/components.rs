@@ -315,8 +315,35 @@ pub fn candidate_cells(
     leaf: f64,
     max_cells: usize,
 ) -> Candidates {
+    octree(surface, regions(lo, hi), leaf, max_cells)
+}
+
+/// The cells of about `leaf` size in `lo .. hi` the surface may pass through (its value
+/// bound holds 0), whatever its gradient: where the surface is, not only where a component
+/// has an extreme — for the extent of a surface rather than seeds of its components.
+pub fn surface_cells(
+    surface: &mut dyn Surface,
+    lo: DVec3,
+    hi: DVec3,
+    leaf: f64,
+    max_cells: usize,
+) -> Candidates {
+    let whole = Region {
+        cell: Cell { lo, hi },
+        need: [false; 3],
+    };
+    octree(surface, vec![whole], leaf, max_cells)
+}
+
+/// The octrees over `regions`, each cell kept while `may_hold` says so, down to `leaf`.
+fn octree(
+    surface: &mut dyn Surface,
+    regions: Vec<Region>,
+    leaf: f64,
+    max_cells: usize,
+) -> Candidates {
     let mut out = Candidates::default();
-    for region in regions(lo, hi) {
+    for region in regions {
         let mut stack = vec![region.cell];
         while let Some(cell) = stack.pop() {
             out.visited += 1;
