@@ -294,6 +294,36 @@ fn tangential_contact_is_refused_at_its_place() {
     assert!(started.elapsed().as_secs_f64() < 20.0);
 }
 
+/// Sharp edges hidden inside a smooth boolean (the box's, in `smooth_union(box, sphere)`) are
+/// not traced: the march stops where its step reaches the floor at such an edge, naming the
+/// place (before: more than two minutes creeping along the edge). A box with a `start` only,
+/// a box with a `box`, and a raw `max` inside a smooth union alike.
+#[test]
+fn sharp_edges_inside_a_smooth_boolean_are_refused_at_their_place() {
+    for (surface, block) in [
+        (
+            "smooth_union(box((-1, -1, -1), (1, 1, 1)), translate(sphere(0.6), (0, 0, 1)), 0.2)",
+            "box: (-2, -2, -2) .. (2, 2, 2);",
+        ),
+        (
+            "smooth_union(max(max(abs(x), abs(y)), abs(z)) - 1, sphere(0.5), 0.1)",
+            "start: (1, 0.2, 0.3);",
+        ),
+    ] {
+        let started = std::time::Instant::now();
+        let source = format!("surface s = {surface};\nmesh s = s {{ step: 0.15; {block} }}\n");
+        let d = match mesh_source(&source) {
+            Ok(_) => panic!("a hidden sharp edge meshed: {source}"),
+            Err(d) => d,
+        };
+        let text = format!("{:?}", d[0]);
+        assert_eq!(d[0].code, "E0601", "{text}");
+        assert!(text.contains("sharp edge near"), "{text}");
+        let took = started.elapsed().as_secs_f64();
+        assert!(took < 5.0, "{source}: {took} s");
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // M5: random CSG trees.
 

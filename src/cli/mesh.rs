@@ -604,6 +604,9 @@ fn march_help(e: &MarchError) -> Option<&'static str> {
         MarchError::NewPoint { .. } | MarchError::Stalled { .. } => {
             "a smaller `step` may get past small features or a singular point; a `box` can keep the mesh away from it"
         }
+        MarchError::HiddenCrease { .. } => {
+            "creases are traced where `min`, `max`, `abs` or a sharp boolean or primitive is the outer part of the formula; one inside a smooth boolean or another function hides its edges: keep sharp parts outside smooth booleans, or round the edge with a smooth boolean (docs/creases.md)"
+        }
         MarchError::PolygonTooShort { .. }
         | MarchError::PolygonSpacing { .. }
         | MarchError::PolygonOffSurface { .. }

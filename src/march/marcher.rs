@@ -21,6 +21,7 @@ use super::{MarchError, MarchInput, PolygonRole, Start};
 use crate::mesh::Mesh;
 use crate::solve::{SurfacePoint, surface_point, tangent_frame};
 use crate::surface::Surface;
+use crate::survey::jump;
 use crate::survey::sizing::{Size, Sizing};
 
 /// Splits and unions add no triangle but retire at least two nodes from distance checks, so
@@ -30,6 +31,8 @@ const MAX_STEPS_WITHOUT_TRIANGLE: u64 = 1_000_000;
 /// How often a new point is made again nearer its parent when it landed where the local step
 /// is much finer (`graded_point`); each retry moves it to where its own step allows.
 const GRADING_RETRIES: u32 = 3;
+/// At most this many floored points are looked at for a hidden sharp edge.
+const MAX_JUMP_CHECKS: u32 = 1024;
 
 type HeapEntry = Reverse<(u64, u32, u32)>;
 
@@ -71,6 +74,8 @@ pub(super) fn run<'s>(
         h: Vec::new(),
         size: Vec::new(),
         floored: None,
+        hidden_crease: None,
+        jump_checks: 0,
         bbox: input.bbox,
         guard: Guard::new(
             step,
@@ -142,6 +147,9 @@ struct Marcher<'s> {
     /// Per point: what the sizing found there (inherited by the points made from it).
     size: Vec<Size>,
     floored: Option<DVec3>,
+    /// A sharp edge found where the step reached its floor, and the checks made for one.
+    hidden_crease: Option<(DVec3, f64)>,
+    jump_checks: u32,
     bbox: Option<(DVec3, DVec3)>,
     /// The triangle limit and the watch for marches that cannot end.
     guard: Guard,
@@ -200,6 +208,14 @@ impl Marcher<'_> {
         self.size.push(size);
         if size.floored && self.floored.is_none() {
             self.floored = Some(sp.point);
+        }
+        // Where the step reaches its floor, the reason may be a sharp edge the crease search
+        // did not see: the step would shrink along it without end (bounded: each check costs
+        // about 170 gradients).
+        if size.floored && self.hidden_crease.is_none() && self.jump_checks < MAX_JUMP_CHECKS {
+            self.jump_checks += 1;
+            let reach = self.sizing.floor();
+            self.hidden_crease = jump::gradient_jump(self.surface, sp.point, (sp.t1, sp.t2), reach);
         }
         let h = match parent {
             Some(q) => {
@@ -665,6 +681,12 @@ impl Marcher<'_> {
                     self.triangles.len() as u64,
                     std::sync::atomic::Ordering::Relaxed,
                 );
+            }
+            if let Some((at, turn)) = self.hidden_crease {
+                return Err(MarchError::HiddenCrease {
+                    at,
+                    degrees: turn.to_degrees(),
+                });
             }
             let (surface, step, tolerance) = (&mut *self.surface, self.step, self.s.surface_point);
             self.guard.check(&self.pos, &self.triangles, last_at, |q| {

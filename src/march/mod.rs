@@ -188,6 +188,10 @@ pub enum MarchError {
         "the front stopped making progress near {at} after {iterations} steps without a triangle"
     )]
     Stalled { at: DVec3, iterations: u64 },
+    #[error(
+        "the surface has a sharp edge near {at} (the direction of its gradient jumps by {degrees:.0}°) that the crease search does not see"
+    )]
+    HiddenCrease { at: DVec3, degrees: f64 },
     #[error("the tolerance {tolerance} is not a positive finite number")]
     InvalidTolerance { tolerance: f64 },
     #[error(

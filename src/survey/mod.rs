@@ -6,5 +6,6 @@
 
 pub mod components;
 pub mod creases;
+pub mod jump;
 pub mod sizing;
 pub mod spine;
