@@ -407,10 +407,41 @@ impl Pair<'_> {
     /// corrected onto the curve in the plane normal to the polyline there. The first vertex
     /// (and, for open curves, the last) is kept.
     fn resample(&mut self, fine: &[DVec3], closed: bool) -> Result<Vec<DVec3>, CurveError> {
+        let Some(line) = ArcLength::new(fine, closed) else {
+            return Ok(fine.to_vec());
+        };
+        let n = segment_count(
+            line.total(),
+            self.step,
+            if closed { 3 } else { 1 },
+            self.tol.max_vertices,
+        )?;
+        line.resample(n, |y, dir| {
+            if dir == DVec3::ZERO {
+                None
+            } else {
+                self.correct(y, Some((y, dir)))
+            }
+        })
+        .map_err(|at| CurveError::CorrectionFailed { at })
+    }
+}
+
+/// A fine polyline measured by arc length, for resampling it into segments of equal length.
+pub struct ArcLength<'a> {
+    fine: &'a [DVec3],
+    closed: bool,
+    /// Arc length from the first vertex to each vertex (and, closed, back to the first).
+    cumulative: Vec<f64>,
+}
+
+impl<'a> ArcLength<'a> {
+    /// None for a polyline without a segment.
+    pub fn new(fine: &'a [DVec3], closed: bool) -> Option<Self> {
         let m = fine.len();
         let segments = if closed { m } else { m.saturating_sub(1) };
         if segments == 0 {
-            return Ok(fine.to_vec());
+            return None;
         }
         let mut cumulative = Vec::with_capacity(segments + 1);
         cumulative.push(0.0);
@@ -418,36 +449,51 @@ impl Pair<'_> {
             let len = (fine[(i + 1) % m] - fine[i]).length();
             cumulative.push(cumulative[i] + len);
         }
-        let total = cumulative[segments];
-        let n = segment_count(
-            total,
-            self.step,
-            if closed { 3 } else { 1 },
-            self.tol.max_vertices,
-        )?;
+        Some(ArcLength {
+            fine,
+            closed,
+            cumulative,
+        })
+    }
+
+    /// The polyline's length.
+    pub fn total(&self) -> f64 {
+        self.cumulative[self.cumulative.len() - 1]
+    }
+
+    /// `n` segments of equal arc length: the first vertex, n − 1 points at equal arc lengths
+    /// put through `correct` (the point on the polyline and the unit direction of its segment,
+    /// zero for a degenerate one), and for an open polyline the last vertex. The point where
+    /// `correct` failed, if it did.
+    pub fn resample(
+        &self,
+        n: usize,
+        mut correct: impl FnMut(DVec3, DVec3) -> Option<DVec3>,
+    ) -> Result<Vec<DVec3>, DVec3> {
+        let (fine, m) = (self.fine, self.fine.len());
+        let segments = self.cumulative.len() - 1;
+        let total = self.total();
         let mut out = Vec::with_capacity(n + 1);
         out.push(fine[0]);
         for k in 1..n {
             let s = total * k as f64 / n as f64;
-            let i = cumulative.partition_point(|&c| c <= s).clamp(1, segments) - 1;
+            let i = self
+                .cumulative
+                .partition_point(|&c| c <= s)
+                .clamp(1, segments)
+                - 1;
             let (a, b) = (fine[i], fine[(i + 1) % m]);
-            let seg_len = cumulative[i + 1] - cumulative[i];
+            let seg_len = self.cumulative[i + 1] - self.cumulative[i];
             let w = if seg_len > 0.0 {
-                (s - cumulative[i]) / seg_len
+                (s - self.cumulative[i]) / seg_len
             } else {
                 0.0
             };
             let y = a.lerp(b, w);
-            let dir = (b - a).normalize_or_zero();
-            let c = if dir == DVec3::ZERO {
-                None
-            } else {
-                self.correct(y, Some((y, dir)))
-            };
-            out.push(c.ok_or(CurveError::CorrectionFailed { at: y })?);
+            out.push(correct(y, (b - a).normalize_or_zero()).ok_or(y)?);
         }
-        if !closed && let Some(&last) = fine.last() {
-            out.push(last);
+        if !self.closed {
+            out.push(fine[m - 1]);
         }
         Ok(out)
     }

@@ -31,7 +31,7 @@ use super::spine::Creased;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
 use crate::solve::SurfacePoint;
-use crate::solve::curve::min_norm_step;
+use crate::solve::curve::{ArcLength, min_norm_step};
 use crate::solve::surfacepoint::tangent_frame;
 use crate::surface::{Surface, ValueGrad};
 
@@ -840,13 +840,11 @@ impl Tracer<'_> {
         let fine = &tr.points;
         let closed = tr.ends.is_none();
         let m = fine.len();
-        let segments = if closed { m } else { m - 1 };
-        let mut cumulative = vec![0.0];
-        for k in 0..segments {
-            let len = fine[(k + 1) % m].distance(fine[k]);
-            cumulative.push(cumulative[k] + len);
-        }
-        let total = cumulative[segments];
+        let line = ArcLength::new(fine, closed).ok_or(CreaseError::Short {
+            at: fine.first().copied().unwrap_or(DVec3::ZERO),
+            length: 0.0,
+        })?;
+        let total = line.total();
         // The local step along the crease, on both pieces, every step or so.
         let mut h = self.step;
         let every = ((self.step / (self.s.trace * self.step)).round() as usize).max(1);
@@ -878,28 +876,8 @@ impl Tracer<'_> {
                 length: total,
             });
         }
-        let mut out = vec![fine[0]];
-        for k in 1..n {
-            let s = total * k as f64 / n as f64;
-            let idx = cumulative.partition_point(|&c| c <= s).clamp(1, segments) - 1;
-            let (a, b) = (fine[idx], fine[(idx + 1) % m]);
-            let len = cumulative[idx + 1] - cumulative[idx];
-            let w = if len > 0.0 {
-                (s - cumulative[idx]) / len
-            } else {
-                0.0
-            };
-            let y = a.lerp(b, w);
-            let dir = (b - a).normalize_or_zero();
-            let c = self
-                .correct(i, j, y, y, dir)
-                .ok_or(CreaseError::Lost { at: y })?;
-            out.push(c);
-        }
-        if !closed {
-            out.push(fine[m - 1]);
-        }
-        Ok(out)
+        line.resample(n, |y, dir| self.correct(i, j, y, y, dir))
+            .map_err(|at| CreaseError::Lost { at })
     }
 
     /// Whether form i's piece lies on the left of the crease walked as traced (seen from where
