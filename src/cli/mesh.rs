@@ -1,4 +1,5 @@
-//! `surfc mesh FILE [-o OUT] [--only NAME]... [--format F] [--json] [--stats] [--quiet]`:
+//! `surfc mesh FILE [-o OUT] [--only NAME]... [--format F] [--json] [--stats] [--quiet]
+//! [--threads N]`:
 //! every selected mesh block is built (surface oracle, curve polygons), marched and reported;
 //! then all of them go into one file, written atomically, or to standard output (`-o -`).
 //! If any mesh fails, nothing is written.
@@ -10,6 +11,7 @@ use std::time::Instant;
 
 use clap::ValueEnum;
 use glam::DVec3;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::build::{self, BuildError, Builder};
@@ -88,6 +90,9 @@ pub struct MeshArgs {
     /// Set a constant of the file: `-D NAME=VALUE` (repeatable).
     #[command(flatten)]
     pub defines: super::load::DefineArgs,
+    /// Threads to mesh with (default: every core). The output is the same bytes for any N.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub threads: Option<u16>,
 }
 
 /// The `--json` report (DESIGN.md §3); structs keep the keys in the documented order.
@@ -141,7 +146,16 @@ pub struct Meshed {
 
 pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
     let json = args.json;
-    match mesh_command(args, color) {
+    // Every parallel part (blocks, the verification's crossing check, the report) runs on
+    // this pool; 0 asks rayon for one thread per core.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.map_or(0, usize::from))
+        .build();
+    let result = match pool {
+        Ok(pool) => pool.install(|| mesh_command(args, color)),
+        Err(e) => Err(Failure::usage(format!("cannot start the threads: {e}"))),
+    };
+    match result {
         Ok(()) => 0,
         Err(failure) => failure.finish(json),
     }
@@ -386,10 +400,15 @@ fn mesh_program(
     quiet: bool,
     engine: Engine,
 ) -> Result<Vec<Meshed>, Diagnostic> {
-    let mut builder = Builder::new(program, engine);
-    let mut meshed = blocks
-        .iter()
+    // Blocks on the threads of the pool, each with its own builder: surfaces are not shared
+    // between threads, and a curve used by two blocks is sampled by each to the same bits
+    // (sampling is a function of the curve, the step and the box). Results are taken in
+    // file order, the first failure in file order is the error: the same for any number of
+    // threads.
+    let results: Vec<Result<Meshed, Diagnostic>> = blocks
+        .par_iter()
         .map(|def| {
+            let mut builder = Builder::new(program, engine);
             let estimate = def
                 .bbox
                 .and_then(|(lo, hi)| estimate_triangles(def.step, lo, hi));
@@ -398,6 +417,9 @@ fn mesh_program(
             progress.finish();
             result
         })
+        .collect();
+    let mut meshed = results
+        .into_iter()
         .collect::<Result<Vec<Meshed>, Diagnostic>>()?;
     // The meshes go into one file: where they share a polygon, they are one net.
     let flips = net::orient(&mut meshed.iter_mut().map(|m| &mut m.mesh).collect::<Vec<_>>());

@@ -12,6 +12,7 @@ use glam::DVec3;
 
 use super::marcher::Triangulation;
 use crate::mesh::check::intersecting_pairs;
+use crate::mesh::edges::Edges;
 use crate::solve::surface_point;
 use crate::solve::tolerance::SurfacePointTolerance;
 use crate::surface::Surface;
@@ -62,56 +63,76 @@ pub(super) fn verify(
     sp_tol: &SurfacePointTolerance,
 ) -> Verdict {
     let mesh = &m.mesh;
+    // The crossing check needs only the mesh: on another thread of the pool (`--threads`)
+    // while this one evaluates the surface; the flaws are put together in the same order
+    // either way.
+    let mut pairs = Vec::new();
+    let mut v = Verdict::default();
+    if rayon::current_num_threads() > 1 {
+        rayon::in_place_scope(|s| {
+            s.spawn(|_| pairs = intersecting_pairs(mesh));
+            v = against_surface(surface, m, tolerance, scale, sp_tol);
+        });
+    } else {
+        pairs = intersecting_pairs(mesh);
+        v = against_surface(surface, m, tolerance, scale, sp_tol);
+    }
+    let crossings = pairs.iter().flatten().map(|&t| {
+        let t = &mesh.triangles[t as usize];
+        Found {
+            flaw: Flaw::Crossing,
+            at: centroid(mesh, t),
+            h: h_of(m, t),
+        }
+    });
+    // Edge flaws first, then crossings, then folds (the order the first flaw is taken from).
+    let edge_flaws = v
+        .wrong
+        .iter()
+        .take_while(|f| f.flaw != Flaw::Folded)
+        .count();
+    v.wrong.splice(edge_flaws..edge_flaws, crossings);
+    v
+}
+
+fn h_of(m: &Triangulation, t: &[u32; 3]) -> f64 {
+    t.iter().map(|&k| m.h[k as usize]).fold(0.0f64, f64::max)
+}
+
+fn centroid(mesh: &crate::mesh::Mesh, t: &[u32; 3]) -> DVec3 {
+    t.iter().map(|&k| mesh.vertices[k as usize]).sum::<DVec3>() / 3.0
+}
+
+/// Everything but the crossings: the edges' uses, the folds and the chord errors (edge flaws
+/// before folds in `wrong`).
+fn against_surface(
+    surface: &mut dyn Surface,
+    m: &Triangulation,
+    tolerance: f64,
+    scale: f64,
+    sp_tol: &SurfacePointTolerance,
+) -> Verdict {
+    let mesh = &m.mesh;
     let vs = &mesh.vertices;
     let mut v = Verdict::default();
-    let h_of = |t: &[u32; 3]| t.iter().map(|&k| m.h[k as usize]).fold(0.0f64, f64::max);
-    let centroid = |t: &[u32; 3]| t.iter().map(|&k| vs[k as usize]).sum::<DVec3>() / 3.0;
-
-    // Edges as (lo, hi, direction), sorted: uses of one edge are adjacent.
-    let mut edges: Vec<(u32, u32, bool, u32)> = Vec::with_capacity(3 * mesh.triangles.len());
-    for (i, t) in mesh.triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            edges.push((a.min(b), a.max(b), a < b, i as u32));
-        }
-    }
-    edges.sort_unstable();
+    // Edges with their uses, in (lo, hi) order (linear: `mesh::edges`).
+    let edges = Edges::new(vs.len(), &mesh.triangles);
     let allowed_open = |k: u32| (k as usize) < m.fixed || m.border[k as usize];
-    let mut midpoints = Vec::with_capacity(edges.len() / 2 + 1);
-    let mut i = 0;
-    while i < edges.len() {
-        let (a, b) = (edges[i].0, edges[i].1);
-        let mut j = i;
-        while j < edges.len() && edges[j].0 == a && edges[j].1 == b {
-            j += 1;
-        }
+    let mut chord_points = Vec::with_capacity(5 * mesh.triangles.len() / 2 + 1);
+    for (a, b, run) in edges.runs() {
         let at = 0.5 * (vs[a as usize] + vs[b as usize]);
         let h = m.h[a as usize].max(m.h[b as usize]);
-        let flaw = match j - i {
+        let flaw = match run.len() {
             1 if !(allowed_open(a) && allowed_open(b)) => Some(Flaw::OpenEdge),
-            2 if edges[i].2 == edges[i + 1].2 => Some(Flaw::Misoriented),
+            2 if run[0].forward == run[1].forward => Some(Flaw::Misoriented),
             n if n > 2 => Some(Flaw::NonManifoldEdge),
             _ => None,
         };
         if let Some(flaw) = flaw {
             v.wrong.push(Found { flaw, at, h });
         }
-        midpoints.push((at, h));
-        i = j;
+        chord_points.push((at, h));
     }
-
-    for pair in intersecting_pairs(mesh) {
-        for t in pair {
-            let t = &mesh.triangles[t as usize];
-            v.wrong.push(Found {
-                flaw: Flaw::Crossing,
-                at: centroid(t),
-                h: h_of(t),
-            });
-        }
-    }
-
-    let mut chord_points = midpoints;
     for t in &mesh.triangles {
         let [a, b, c] = t.map(|k| vs[k as usize]);
         let n = (b - a).cross(c - a);
@@ -119,11 +140,11 @@ pub(super) fn verify(
         if n.dot(normals) <= 0.0 {
             v.wrong.push(Found {
                 flaw: Flaw::Folded,
-                at: centroid(t),
-                h: h_of(t),
+                at: centroid(mesh, t),
+                h: h_of(m, t),
             });
         }
-        chord_points.push((centroid(t), h_of(t)));
+        chord_points.push((centroid(mesh, t), h_of(m, t)));
     }
     for (at, h) in chord_points {
         let error = chord_error(surface, at, tolerance, scale, sp_tol);

@@ -5,6 +5,7 @@
 //! edges). Returns every violation found, as data.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::Mesh;
 use super::quality::{max_vertex_error, quality};
@@ -325,7 +326,7 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
     let vs = &mesh.vertices;
     let tris = &mesh.triangles;
     let boxes: Vec<(DVec3, DVec3)> = tris
-        .iter()
+        .par_iter()
         .map(|t| {
             let [a, b, c] = t.map(|k| vs[k as usize]);
             (a.min(b).min(c), a.max(b).max(c))
@@ -377,33 +378,45 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
             (l.y..=h.y).flat_map(move |y| (l.z..=h.z).map(move |z| pack(c, x, y, z)))
         })
     };
-    let mut grid: Vec<(u64, u32)> = Vec::with_capacity(6 * tris.len());
-    for (i, &b) in boxes.iter().enumerate() {
-        for &c in present.iter().filter(|&&c| c >= classes[i]) {
-            grid.extend(cells(b, c).map(|k| (k, i as u32)));
-        }
-    }
-    grid.sort_unstable();
-    let mut out = Vec::new();
-    for run in grid.chunk_by(|x, y| x.0 == y.0) {
-        let (k, c) = (run[0].0, (run[0].0 >> 57) as u32);
-        for (x, &(_, i)) in run.iter().enumerate() {
-            let (li, hi) = boxes[i as usize];
-            for &(_, j) in &run[x + 1..] {
-                // Two guests meet in the grid of the coarser of them.
-                if classes[i as usize] < c && classes[j as usize] < c {
-                    continue;
-                }
-                let (lj, hj) = boxes[j as usize];
-                if li.cmpgt(hj).any() || lj.cmpgt(hi).any() || key(li.max(lj), c) != k {
-                    continue;
-                }
-                if triangles_cross(vs, tris[i as usize], tris[j as usize]) {
-                    out.push([i.min(j), i.max(j)]);
+    // On every thread of the pool (`--threads`): the entries, their sort and the cells' runs
+    // are independent; the pairs are sorted at the end, so the result is the same for any
+    // number of threads.
+    let mut grid: Vec<(u64, u32)> = boxes
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(i, &b)| {
+            let least = classes[i];
+            present
+                .iter()
+                .filter(move |&&c| c >= least)
+                .flat_map(move |&c| cells(b, c).map(move |k| (k, i as u32)))
+        })
+        .collect();
+    grid.par_sort_unstable();
+    let mut out: Vec<[u32; 2]> = grid
+        .par_chunk_by(|x, y| x.0 == y.0)
+        .flat_map_iter(|run| {
+            let (k, c) = (run[0].0, (run[0].0 >> 57) as u32);
+            let mut found = Vec::new();
+            for (x, &(_, i)) in run.iter().enumerate() {
+                let (li, hi) = boxes[i as usize];
+                for &(_, j) in &run[x + 1..] {
+                    // Two guests meet in the grid of the coarser of them.
+                    if classes[i as usize] < c && classes[j as usize] < c {
+                        continue;
+                    }
+                    let (lj, hj) = boxes[j as usize];
+                    if li.cmpgt(hj).any() || lj.cmpgt(hi).any() || key(li.max(lj), c) != k {
+                        continue;
+                    }
+                    if triangles_cross(vs, tris[i as usize], tris[j as usize]) {
+                        found.push([i.min(j), i.max(j)]);
+                    }
                 }
             }
-        }
-    }
+            found
+        })
+        .collect();
     out.sort_unstable();
     out.dedup();
     out

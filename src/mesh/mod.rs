@@ -3,6 +3,7 @@
 //! writers live in submodules and see meshes only through this type.
 
 pub mod check;
+pub mod edges;
 pub mod net;
 pub mod quality;
 pub mod topology;

@@ -30,18 +30,37 @@ pub fn orient(meshes: &mut [&mut Mesh]) -> Vec<bool> {
 /// Which meshes to flip: a walk over the graph of meshes joined by shared edges, each join
 /// deciding by the majority of its edges whether the two meshes agree.
 fn flips(meshes: &[&mut Mesh]) -> Vec<bool> {
-    // Every use of an undirected edge (over file-wide vertex ids): which mesh, which way.
+    // One mesh joins nothing (and the fine sphere's 4 M edge uses need not be looked at).
+    if meshes.len() < 2 {
+        return vec![false; meshes.len()];
+    }
+    // File-wide vertex ids, and for each id whether more than one mesh uses it: only edges
+    // between such vertices can be used by two meshes, so only those are collected.
     let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
-    let mut uses: HashMap<(u32, u32), Vec<(usize, bool)>> = HashMap::new();
-    for (m, mesh) in meshes.iter().enumerate() {
-        let local: Vec<u32> = mesh
-            .vertices
-            .iter()
-            .map(|v| {
-                let next = ids.len() as u32;
-                *ids.entry(v.to_array().map(f64::to_bits)).or_insert(next)
-            })
-            .collect();
+    let mut shared: Vec<(usize, bool)> = Vec::new();
+    let locals: Vec<Vec<u32>> = meshes
+        .iter()
+        .enumerate()
+        .map(|(m, mesh)| {
+            mesh.vertices
+                .iter()
+                .map(|v| {
+                    let next = ids.len() as u32;
+                    let id = *ids.entry(v.to_array().map(f64::to_bits)).or_insert(next);
+                    if id == next {
+                        shared.push((m, false));
+                    } else if shared[id as usize].0 != m {
+                        shared[id as usize].1 = true;
+                    }
+                    id
+                })
+                .collect()
+        })
+        .collect();
+    // Every use of an undirected edge between shared vertices: (lo, hi, mesh, lo → hi);
+    // sorted, the uses of one edge are adjacent.
+    let mut uses: Vec<(u32, u32, usize, bool)> = Vec::new();
+    for (m, (mesh, local)) in meshes.iter().zip(&locals).enumerate() {
         for t in &mesh.triangles {
             for k in 0..3 {
                 let (Some(&a), Some(&b)) =
@@ -49,17 +68,18 @@ fn flips(meshes: &[&mut Mesh]) -> Vec<bool> {
                 else {
                     continue;
                 };
-                uses.entry((a.min(b), a.max(b)))
-                    .or_default()
-                    .push((m, a < b));
+                if shared[a as usize].1 && shared[b as usize].1 {
+                    uses.push((a.min(b), a.max(b), m, a < b));
+                }
             }
         }
     }
+    uses.sort_unstable();
     // Per pair of meshes: edges used in opposite directions (agree) less those used in the
     // same direction (disagree). A BTreeMap, so that the walk below is deterministic.
     let mut votes: BTreeMap<(usize, usize), i64> = BTreeMap::new();
-    for u in uses.values() {
-        if let &[(i, fi), (j, fj)] = u.as_slice()
+    for u in uses.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
+        if let &[(_, _, i, fi), (_, _, j, fj)] = u
             && i != j
         {
             *votes.entry((i.min(j), i.max(j))).or_insert(0) += if fi != fj { 1 } else { -1 };

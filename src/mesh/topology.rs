@@ -1,10 +1,11 @@
 //! Topology of a triangle mesh: edges with their uses, boundary edges and loops, non-manifold
 //! edges, orientation consistency, Euler characteristic, connected components. Everything is
-//! computed in sorted order, so results are deterministic.
+//! computed in sorted order, so results are deterministic; the cost is linear in the mesh.
 
 use std::collections::BTreeMap;
 
 use super::Mesh;
+use super::edges::Edges;
 
 /// An undirected edge (smaller vertex index first).
 pub type Edge = [u32; 2];
@@ -52,12 +53,19 @@ fn find(parent: &mut [u32], mut x: u32) -> u32 {
     x
 }
 
-/// Computes the topology of `mesh`.
+/// Computes the topology of `mesh`, in time linear in its size (edges from
+/// [`Edges`], components by union–find).
 pub fn topology(mesh: &Mesh) -> Topology {
-    // Per undirected edge: (uses in direction lo→hi, uses in direction hi→lo).
-    let mut edges: BTreeMap<Edge, (u32, u32)> = BTreeMap::new();
+    let edges = Edges::new(mesh.vertices.len(), &mesh.triangles);
     let mut degenerate = 0;
-    let nv = mesh.vertices.len();
+    let nv = mesh.vertices.len().max(
+        mesh.triangles
+            .iter()
+            .flatten()
+            .map(|&k| k as usize + 1)
+            .max()
+            .unwrap_or(0),
+    );
     let mut used = vec![false; nv];
     let mut parent: Vec<u32> = (0..nv as u32).collect();
     for t in &mesh.triangles {
@@ -67,12 +75,6 @@ pub fn topology(mesh: &Mesh) -> Topology {
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             used[a as usize] = true;
-            let e = edges.entry([a.min(b), a.max(b)]).or_default();
-            if a < b {
-                e.0 += 1;
-            } else {
-                e.1 += 1;
-            }
             let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
             if ra != rb {
                 parent[ra.max(rb) as usize] = ra.min(rb);
@@ -82,11 +84,14 @@ pub fn topology(mesh: &Mesh) -> Topology {
     let mut boundary_edges = Vec::new();
     let mut non_manifold_edges = Vec::new();
     let mut misoriented_edges = Vec::new();
-    for (&[lo, hi], &(f, b)) in &edges {
-        match f + b {
-            1 => boundary_edges.push(if f == 1 { [lo, hi] } else { [hi, lo] }),
+    let mut edge_count = 0usize;
+    for (lo, hi, run) in edges.runs() {
+        edge_count += 1;
+        let forward = run.iter().filter(|u| u.forward).count();
+        match run.len() {
+            1 => boundary_edges.push(if forward == 1 { [lo, hi] } else { [hi, lo] }),
             2 => {
-                if f != 1 {
+                if forward != 1 {
                     misoriented_edges.push([lo, hi]);
                 }
             }
@@ -94,26 +99,25 @@ pub fn topology(mesh: &Mesh) -> Topology {
         }
     }
     let used_vertices = used.iter().filter(|&&u| u).count();
-    let mut roots = std::collections::BTreeSet::new();
-    for v in 0..nv as u32 {
-        if used[v as usize] {
-            roots.insert(find(&mut parent, v));
-        }
-    }
+    // Every vertex of a set is used (unused ones stay alone), so each set's root is a used
+    // vertex that is its own parent.
+    let components = (0..nv as u32)
+        .filter(|&v| used[v as usize] && find(&mut parent, v) == v)
+        .count();
     let boundary_loops = loops(&boundary_edges);
     Topology {
-        vertices: nv,
+        vertices: mesh.vertices.len(),
         used_vertices,
         triangles: mesh.triangles.len(),
-        edges: edges.len(),
-        euler_characteristic: used_vertices as i64 - edges.len() as i64
+        edges: edge_count,
+        euler_characteristic: used_vertices as i64 - edge_count as i64
             + mesh.triangles.len() as i64,
         boundary_edges,
         boundary_loops,
         non_manifold_edges,
         misoriented_edges,
         degenerate_triangles: degenerate,
-        components: roots.len(),
+        components,
     }
 }
 

@@ -1,0 +1,284 @@
+//! surfc against fast-surface-nets (DESIGN.md §6, issue 14): the same surface, the same box,
+//! the same mean edge length, in one run. For each case it prints one line of medians of
+//! interleaved runs and their ratios (so a load from elsewhere on the machine falls on all
+//! alike), then criterion measures each part on its own:
+//! - `fsn`: fast-surface-nets sampling the formula (f32, native Rust) on a grid over the box
+//!   and extracting its mesh; the grid spacing is chosen so that its mean edge length equals
+//!   surfc's (calibrated once, both printed);
+//! - `march`: surfc's verified march alone (compiled surface, native code);
+//! - `mesh_1t`, `mesh_2t`: the whole `surfc mesh` path of the gallery file (parse, compile,
+//!   march, verification, report) on a rayon pool of one and two threads.
+//!
+//! `cargo bench --bench speed` (docs/speed.md); `SPEED_ROUNDS` sets the interleaved rounds
+//! (default 5), `SPEED_CASES` a comma-separated subset of `sphere,genus3,three_cylinders`.
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use fast_surface_nets::ndshape::{RuntimeShape, Shape};
+use fast_surface_nets::{SurfaceNetsBuffer, surface_nets};
+use glam::DVec3;
+use surfc::cli::mesh::mesh_source;
+use surfc::march::{MarchInput, MarchSettings, march};
+
+/// One case: a gallery file at a step, the formula for fast-surface-nets and the box.
+struct Case {
+    name: &'static str,
+    source: String,
+    /// The surface's name in the file (compiled for `march`).
+    surface: &'static str,
+    step: f64,
+    start: DVec3,
+    /// The box surfc meshes in, if the block has one.
+    mesh_box: Option<(DVec3, DVec3)>,
+    /// The box fast-surface-nets samples (the block's box, or one around the surface).
+    grid_box: (DVec3, DVec3),
+    f: fn(f32, f32, f32) -> f32,
+}
+
+fn genus3(x: f32, y: f32, z: f32) -> f32 {
+    let (rx, ry, rz, r1, x1) = (6.0f32, 3.5f32, 4.0f32, 1.2f32, 3.9f32);
+    let a = 1.0 - (x / rx).powi(2) - (y / ry).powi(2);
+    let b = (x - x1).powi(2) + y * y - r1 * r1;
+    let c = x * x + y * y - r1 * r1;
+    let d = (x + x1).powi(2) + y * y - r1 * r1;
+    rz.powi(4) * z * z - a * b * c * d
+}
+
+fn three_cylinders(x: f32, y: f32, z: f32) -> f32 {
+    let f1 = x * x + (z - 5.0).powi(2) - 4.0;
+    let f2 = (y + 4.0).powi(2) + z * z - 4.0;
+    let f3 = (y - 4.0).powi(2) + z * z - 4.0;
+    f1 * f2 * f3 - 2287.5587
+}
+
+fn cases() -> Vec<Case> {
+    let at = |text: &str, from: &str, to: &str| {
+        assert!(text.contains(from), "the gallery file has `{from}`");
+        text.replace(from, to)
+    };
+    let v = DVec3::new;
+    vec![
+        Case {
+            name: "sphere_0.01",
+            source: at(
+                include_str!("../examples/sphere.surf"),
+                "step: 0.3;",
+                "step: 0.01;",
+            ),
+            surface: "sphere",
+            step: 0.01,
+            start: v(1.0, 1.0, 1.0),
+            mesh_box: None,
+            grid_box: (v(-2.05, -2.05, -2.05), v(2.05, 2.05, 2.05)),
+            f: |x, y, z| x * x + y * y + z * z - 4.0,
+        },
+        Case {
+            name: "genus3_0.05",
+            source: at(
+                include_str!("../examples/genus3.surf"),
+                "step: 0.3;",
+                "step: 0.05;",
+            ),
+            surface: "genus3",
+            step: 0.05,
+            start: v(0.0, 3.0, 0.0),
+            mesh_box: None,
+            grid_box: (v(-6.5, -4.0, -2.5), v(6.5, 4.0, 2.5)),
+            f: genus3,
+        },
+        Case {
+            name: "three_cylinders_0.1",
+            source: at(
+                include_str!("../examples/three_cylinders.surf"),
+                "step: 0.5;",
+                "step: 0.1;",
+            ),
+            surface: "three_cylinders",
+            step: 0.1,
+            start: v(0.0, -4.0, -2.0),
+            mesh_box: Some((v(-7.0, -7.0, -7.0), v(7.0, 7.0, 5.0))),
+            grid_box: (v(-7.0, -7.0, -7.0), v(7.0, 7.0, 5.0)),
+            f: three_cylinders,
+        },
+    ]
+}
+
+/// fast-surface-nets over `grid_box` at `spacing`: samples, extracts; the triangle count and
+/// the mean edge length (model units).
+fn fsn(f: fn(f32, f32, f32) -> f32, (lo, hi): (DVec3, DVec3), spacing: f64) -> (usize, f64) {
+    // One sample beyond the box on each side, so that the surface inside it is all meshed.
+    let n = ((hi - lo) / spacing).ceil().as_uvec3() + glam::UVec3::splat(3);
+    let shape = RuntimeShape::<u32, 3>::new([n.x, n.y, n.z]);
+    let origin = lo - DVec3::splat(spacing);
+    let mut sdf = vec![0f32; shape.usize()];
+    let s = spacing as f32;
+    let (ox, oy, oz) = (origin.x as f32, origin.y as f32, origin.z as f32);
+    let mut i = 0;
+    for z in 0..n.z {
+        let pz = oz + z as f32 * s;
+        for y in 0..n.y {
+            let py = oy + y as f32 * s;
+            for x in 0..n.x {
+                sdf[i] = f(ox + x as f32 * s, py, pz);
+                i += 1;
+            }
+        }
+    }
+    let mut buffer = SurfaceNetsBuffer::default();
+    surface_nets(
+        &sdf,
+        &shape,
+        [0; 3],
+        [n.x - 1, n.y - 1, n.z - 1],
+        &mut buffer,
+    );
+    let (mut sum, mut count) = (0.0f64, 0usize);
+    for t in buffer.indices.chunks_exact(3) {
+        for k in 0..3 {
+            let (a, b) = (
+                buffer.positions[t[k] as usize],
+                buffer.positions[t[(k + 1) % 3] as usize],
+            );
+            let d = (0..3).map(|j| (a[j] - b[j]).powi(2)).sum::<f32>().sqrt();
+            sum += f64::from(d) * spacing;
+            count += 1;
+        }
+    }
+    (buffer.indices.len() / 3, sum / count.max(1) as f64)
+}
+
+/// The surface of the case compiled from its file (native code), as `surfc mesh` runs it.
+fn compiled(case: &Case) -> surfc::surface::compiled::CompiledSurface {
+    use surfc::sema::program::{SurfaceId, SurfaceRef};
+    let (file, diags) = surfc::syntax::parse(&case.source);
+    let file = file.unwrap_or_else(|| panic!("{diags:?}"));
+    let (program, _) = surfc::sema::check(&file);
+    let id = program
+        .surfaces
+        .iter()
+        .position(|s| s.name == case.surface)
+        .expect("the surface is defined");
+    surfc::compile::compile_surface(
+        &program,
+        &SurfaceRef::Surface(SurfaceId(id as u32)),
+        &mut |_| -> Result<Box<dyn surfc::surface::Surface>, String> {
+            Err("no dist() in the benched surfaces".into())
+        },
+    )
+    .expect("the surface compiles")
+}
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool")
+}
+
+fn bench_case(c: &mut Criterion, case: &Case, rounds: usize) {
+    let (one, two) = (pool(1), pool(2));
+    let mesh = |p: &rayon::ThreadPool| {
+        p.install(|| {
+            let m = mesh_source(&case.source).unwrap_or_else(|e| panic!("{}: {e:?}", case.name));
+            (m[0].report.triangles, m[0].report.stats.edge_mean)
+        })
+    };
+    let input = MarchInput {
+        bbox: case.mesh_box,
+        ..MarchInput::from_point(case.step, case.start)
+    };
+    let settings = MarchSettings::default();
+    let run_march = || {
+        one.install(|| {
+            let mut s = compiled(case);
+            march(&mut s, &input, &settings)
+                .map(|m| m.triangles.len())
+                .unwrap_or_else(|e| panic!("{}: {e}", case.name))
+        })
+    };
+    // The grid spacing that gives fast-surface-nets surfc's mean edge length.
+    let (surfc_triangles, surfc_edge) = mesh(&one);
+    let (_, first) = fsn(case.f, case.grid_box, surfc_edge);
+    let spacing = surfc_edge * surfc_edge / first;
+    let (fsn_triangles, fsn_edge) = fsn(case.f, case.grid_box, spacing);
+
+    // Interleaved medians and their ratios.
+    let time = |f: &dyn Fn()| {
+        let t = Instant::now();
+        f();
+        t.elapsed().as_secs_f64()
+    };
+    let mut runs: Vec<[f64; 4]> = Vec::new();
+    for _ in 0..rounds {
+        runs.push([
+            time(&|| {
+                black_box(fsn(case.f, case.grid_box, spacing));
+            }),
+            time(&|| {
+                black_box(run_march());
+            }),
+            time(&|| {
+                black_box(mesh(&one));
+            }),
+            time(&|| {
+                black_box(mesh(&two));
+            }),
+        ]);
+    }
+    let median = |k: usize| {
+        let mut t: Vec<f64> = runs.iter().map(|r| r[k]).collect();
+        t.sort_by(f64::total_cmp);
+        t[t.len() / 2]
+    };
+    let [f, m, m1, m2] = [0, 1, 2, 3].map(median);
+    eprintln!(
+        "speed {}: fast-surface-nets {:.3} s ({} triangles, mean edge {:.5}, spacing {:.5}); surfc march {:.3} s, mesh 1 thread {:.3} s, 2 threads {:.3} s ({} triangles, mean edge {:.5}); ratio to fast-surface-nets: march {:.2}, mesh 1 thread {:.2}, 2 threads {:.2} (medians of {} interleaved rounds)",
+        case.name,
+        f,
+        fsn_triangles,
+        fsn_edge,
+        spacing,
+        m,
+        m1,
+        m2,
+        surfc_triangles,
+        surfc_edge,
+        m / f,
+        m1 / f,
+        m2 / f,
+        rounds
+    );
+
+    let mut g = c.benchmark_group(format!("speed/{}", case.name));
+    g.sample_size(10);
+    g.bench_function("fsn", |b| {
+        b.iter(|| black_box(fsn(case.f, case.grid_box, spacing)))
+    });
+    g.bench_function("march", |b| b.iter(|| black_box(run_march())));
+    g.bench_function("mesh_1t", |b| b.iter(|| black_box(mesh(&one))));
+    g.bench_function("mesh_2t", |b| b.iter(|| black_box(mesh(&two))));
+    g.finish();
+}
+
+fn benches(c: &mut Criterion) {
+    let rounds = std::env::var("SPEED_ROUNDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(5usize)
+        .max(1);
+    let only = std::env::var("SPEED_CASES").ok();
+    for case in cases() {
+        let wanted = only.as_deref().is_none_or(|o| {
+            o.split(',')
+                .any(|w| !w.is_empty() && case.name.starts_with(w.trim()))
+        });
+        if wanted {
+            bench_case(c, &case, rounds);
+        }
+    }
+}
+
+criterion_group!(speed_benches, benches);
+criterion_main!(speed_benches);

@@ -1,0 +1,141 @@
+//! The edges of a triangle mesh in linear time: every use of an undirected edge by a
+//! triangle, grouped by edge in (lower vertex, higher vertex) order. The topology report and
+//! the marcher's verification both walk these runs; a counting sort by the lower vertex
+//! (each vertex has a handful of edges) replaces a map or a global sort of all edges.
+
+/// One use of an undirected edge {lo, hi} by a triangle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct EdgeUse {
+    /// The higher vertex of the edge.
+    pub hi: u32,
+    /// Whether the triangle runs the edge from lo to hi.
+    pub forward: bool,
+    /// The triangle.
+    pub triangle: u32,
+}
+
+/// Every edge use of a mesh, bucketed by the edge's lower vertex and sorted within each
+/// bucket by (hi, forward, triangle): the order a sort of (lo, hi, forward, triangle) gives.
+pub struct Edges {
+    /// `uses[start[v]..start[v + 1]]` are the uses of the edges whose lower vertex is v.
+    start: Vec<u32>,
+    uses: Vec<EdgeUse>,
+}
+
+impl Edges {
+    /// The edge uses of `triangles` over `vertices` vertices (indices at or above it are
+    /// counted too: the buckets grow to the largest index).
+    pub fn new(vertices: usize, triangles: &[[u32; 3]]) -> Edges {
+        let n = triangles
+            .iter()
+            .flatten()
+            .map(|&k| k as usize + 1)
+            .max()
+            .unwrap_or(0)
+            .max(vertices);
+        let mut start = vec![0u32; n + 1];
+        for t in triangles {
+            for k in 0..3 {
+                start[t[k].min(t[(k + 1) % 3]) as usize + 1] += 1;
+            }
+        }
+        for v in 0..n {
+            start[v + 1] += start[v];
+        }
+        let mut fill = start.clone();
+        let mut uses = vec![
+            EdgeUse {
+                hi: 0,
+                forward: false,
+                triangle: 0,
+            };
+            3 * triangles.len()
+        ];
+        for (i, t) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                let slot = &mut fill[a.min(b) as usize];
+                uses[*slot as usize] = EdgeUse {
+                    hi: a.max(b),
+                    forward: a < b,
+                    triangle: i as u32,
+                };
+                *slot += 1;
+            }
+        }
+        for v in 0..n {
+            let bucket = &mut uses[start[v] as usize..start[v + 1] as usize];
+            // Buckets hold about six uses; a fan around one vertex may hold many.
+            if bucket.len() <= 16 {
+                insertion_sort(bucket);
+            } else {
+                bucket.sort_unstable();
+            }
+        }
+        Edges { start, uses }
+    }
+
+    /// Each undirected edge as (lo, hi, its uses), in (lo, hi) order.
+    pub fn runs(&self) -> impl Iterator<Item = (u32, u32, &[EdgeUse])> {
+        self.start.windows(2).enumerate().flat_map(move |(lo, w)| {
+            self.uses[w[0] as usize..w[1] as usize]
+                .chunk_by(|x, y| x.hi == y.hi)
+                .map(move |run| (lo as u32, run[0].hi, run))
+        })
+    }
+}
+
+fn insertion_sort(s: &mut [EdgeUse]) {
+    for i in 1..s.len() {
+        let mut j = i;
+        while j > 0 && s[j] < s[j - 1] {
+            s.swap(j, j - 1);
+            j -= 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The runs against a plain sort of every (lo, hi, forward, triangle), on meshes with
+    /// fans of every size (buckets on both sides of the insertion-sort limit).
+    #[test]
+    fn runs_are_a_sort_of_all_edge_uses() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = |n: u32| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % u64::from(n)) as u32
+        };
+        for &(nv, nt) in &[(4u32, 3usize), (30, 200), (500, 3000), (3, 40)] {
+            let triangles: Vec<[u32; 3]> =
+                (0..nt).map(|_| [next(nv), next(nv), next(nv)]).collect();
+            let mut expected: Vec<(u32, u32, bool, u32)> = Vec::new();
+            for (i, t) in triangles.iter().enumerate() {
+                for k in 0..3 {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    expected.push((a.min(b), a.max(b), a < b, i as u32));
+                }
+            }
+            expected.sort_unstable();
+            let edges = Edges::new(nv as usize, &triangles);
+            let got: Vec<(u32, u32, bool, u32)> = edges
+                .runs()
+                .flat_map(|(lo, hi, run)| {
+                    assert!(run.iter().all(|u| u.hi == hi));
+                    run.iter().map(move |u| (lo, hi, u.forward, u.triangle))
+                })
+                .collect();
+            assert_eq!(got, expected);
+            let distinct = {
+                let mut e: Vec<(u32, u32)> = expected.iter().map(|e| (e.0, e.1)).collect();
+                e.dedup();
+                e.len()
+            };
+            assert_eq!(edges.runs().count(), distinct);
+        }
+    }
+}
