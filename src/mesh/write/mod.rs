@@ -16,6 +16,7 @@ mod off;
 mod ply;
 mod stl;
 pub mod target;
+mod text;
 mod threemf;
 mod vtu;
 

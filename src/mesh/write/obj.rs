@@ -4,11 +4,11 @@
 //! normals as points. Each mesh is `o NAME` and `g NAME` (trimesh splits on `o`, meshio on
 //! `g`) with faces `f v//v`, 1-based. Numbers in Rust's shortest round-trip form.
 
-use std::fmt::Write as _;
 use std::io::{self, Write};
 
 use glam::DVec3;
 
+use super::text::{write_lines, xyz};
 use super::{Format, NamedMesh, SharedPositions, header_name};
 
 /// Writes the meshes as one OBJ file (see the module comment).
@@ -19,35 +19,27 @@ pub fn write_obj(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
 pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
     let shared = SharedPositions::new(meshes);
     let normals = shared_normals(meshes, &shared);
-    let mut line = String::with_capacity(128);
     let names: Vec<String> = meshes.iter().map(|m| header_name(m.name)).collect();
     writeln!(out, "# surfc: {}", names.join(", "))?;
     // All positions and normals first: an object may use positions first written for an
-    // earlier one.
-    for p in &shared.positions {
-        line.clear();
-        // `{:?}` is the shortest text that parses back to the same f64 (`2.0`, `1e-7`).
-        let _ = writeln!(line, "v {:?} {:?} {:?}", p.x, p.y, p.z);
-        out.write_all(line.as_bytes())?;
-    }
-    for n in &normals {
-        line.clear();
-        let _ = writeln!(line, "vn {:?} {:?} {:?}", n.x, n.y, n.z);
-        out.write_all(line.as_bytes())?;
-    }
+    // earlier one. Floats as `{:?}` writes them: the shortest text that parses back to the
+    // same f64 (`2.0`, `1e-7`).
+    write_lines(out, &shared.positions, |t, p| xyz(t, "v ", p.to_array()))?;
+    write_lines(out, &normals, |t, n| xyz(t, "vn ", n.to_array()))?;
     for ((named, index), name) in meshes.iter().zip(&shared.index).zip(&names) {
         writeln!(out, "o {name}")?;
         writeln!(out, "g {name}")?;
-        for tri in &named.mesh.triangles {
-            line.clear();
-            line.push('f');
+        write_lines(out, &named.mesh.triangles, |t, tri| {
+            t.str("f");
             for &i in tri {
                 let v = u64::from(index[i as usize]) + 1;
-                let _ = write!(line, " {v}//{v}");
+                t.str(" ");
+                t.int(v);
+                t.str("//");
+                t.int(v);
             }
-            line.push('\n');
-            out.write_all(line.as_bytes())?;
-        }
+            t.str("\n");
+        })?;
     }
     Ok(())
 }

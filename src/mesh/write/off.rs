@@ -2,9 +2,9 @@
 //! bit-identical positions written once (0-based indices); OFF has no names and no normals.
 //! Numbers in Rust's shortest round-trip form.
 
-use std::fmt::Write as _;
 use std::io::{self, Write};
 
+use super::text::{write_lines, xyz};
 use super::{Format, NamedMesh, SharedPositions};
 
 /// Writes the meshes as one OFF file (see the module comment).
@@ -17,19 +17,16 @@ pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()>
     let faces: usize = meshes.iter().map(|m| m.mesh.triangles.len()).sum();
     writeln!(out, "OFF")?;
     writeln!(out, "{} {} 0", shared.positions.len(), faces)?;
-    let mut line = String::with_capacity(96);
-    for p in &shared.positions {
-        line.clear();
-        let _ = writeln!(line, "{:?} {:?} {:?}", p.x, p.y, p.z);
-        out.write_all(line.as_bytes())?;
-    }
+    write_lines(out, &shared.positions, |t, p| xyz(t, "", p.to_array()))?;
     for (named, index) in meshes.iter().zip(&shared.index) {
-        for tri in &named.mesh.triangles {
-            line.clear();
-            let [a, b, c] = tri.map(|i| index[i as usize]);
-            let _ = writeln!(line, "3 {a} {b} {c}");
-            out.write_all(line.as_bytes())?;
-        }
+        write_lines(out, &named.mesh.triangles, |t, tri| {
+            t.str("3");
+            for &i in tri {
+                t.str(" ");
+                t.int(u64::from(index[i as usize]));
+            }
+            t.str("\n");
+        })?;
     }
     Ok(())
 }

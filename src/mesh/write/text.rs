@@ -1,0 +1,207 @@
+//! Numbers as text for the text formats (OBJ, OFF, MSH), fast: floats through `ryu` in
+//! exactly the text of Rust's `{:?}` (shortest round-trip; DESIGN.md §3), integers through
+//! `itoa`, and long lists formatted in chunks on the threads of the rayon pool and written in
+//! order, so the bytes are the same for any number of threads.
+
+use std::io::{self, Write};
+
+use rayon::prelude::*;
+
+/// Items per chunk formatted on one thread (≈ 2–4 MB of text).
+const CHUNK: usize = 1 << 16;
+
+/// A growing line buffer with the number formatters.
+pub(super) struct Text {
+    pub bytes: Vec<u8>,
+    float: ryu::Buffer,
+    int: itoa::Buffer,
+}
+
+impl Text {
+    pub fn with_capacity(n: usize) -> Text {
+        Text {
+            bytes: Vec::with_capacity(n),
+            float: ryu::Buffer::new(),
+            int: itoa::Buffer::new(),
+        }
+    }
+
+    pub fn str(&mut self, s: &str) {
+        self.bytes.extend_from_slice(s.as_bytes());
+    }
+
+    pub fn int(&mut self, v: u64) {
+        self.bytes.extend_from_slice(self.int.format(v).as_bytes());
+    }
+
+    /// `x` as `format!("{x:?}")` writes it.
+    pub fn float(&mut self, x: f64) {
+        if may_tie(x) {
+            use std::fmt::Write as _;
+            let mut s = String::new();
+            let _ = write!(s, "{x:?}");
+            self.bytes.extend_from_slice(s.as_bytes());
+            return;
+        }
+        let text = self.float.format(x);
+        // The one range where the two disagree: ryu writes 1e-5 ≤ |x| < 1e-4 as
+        // `0.0000ddd`, Rust as `d.dde-5` (the same shortest digits).
+        let abs = x.abs();
+        if (1e-5..1e-4).contains(&abs) {
+            if x.is_sign_negative() {
+                self.bytes.push(b'-');
+            }
+            let digits = text.trim_start_matches('-').trim_start_matches("0.0000");
+            let (first, rest) = digits.split_at(1);
+            self.bytes.extend_from_slice(first.as_bytes());
+            if !rest.is_empty() {
+                self.bytes.push(b'.');
+                self.bytes.extend_from_slice(rest.as_bytes());
+            }
+            self.bytes.extend_from_slice(b"e-5");
+        } else {
+            self.bytes.extend_from_slice(text.as_bytes());
+        }
+    }
+}
+
+/// Whether two shortest round-trip texts of `x` may exist (a tie between the last digits,
+/// which ryu and Rust break differently): only where the exact decimal value of `x` has at
+/// most 18 significant digits (its last digit 5). A binary fraction m·2^e (m odd, e < 0) has
+/// exactly −e digits after the point, so that is where it has few of them, or at 1e16 and
+/// above. Mesh coordinates from Newton steps almost never are; those go to `{:?}`.
+fn may_tie(x: f64) -> bool {
+    if !x.is_finite() || x == 0.0 {
+        return false;
+    }
+    let abs = x.abs();
+    if abs >= 1e16 {
+        return true;
+    }
+    let bits = abs.to_bits();
+    let (biased, fraction) = ((bits >> 52) as i64, bits & ((1u64 << 52) - 1));
+    let (m, e) = if biased == 0 {
+        (fraction, -1074)
+    } else {
+        (fraction | (1u64 << 52), biased - 1075)
+    };
+    let e = e + i64::from(m.trailing_zeros());
+    // An integer below 1e16 is exact in at most 16 digits: one shortest text.
+    if e >= 0 {
+        return false;
+    }
+    // Digits before the point, give or take one (the margin covers log10's rounding).
+    let whole = abs.log10().floor() as i64 + 1;
+    whole - e <= 19
+}
+
+/// Writes one line per item of `items`, made by `line`, in order; the lines are formatted in
+/// chunks on the pool's threads.
+pub(super) fn write_lines<T: Sync>(
+    out: &mut dyn Write,
+    items: &[T],
+    line: impl Fn(&mut Text, &T) + Sync,
+) -> io::Result<()> {
+    let chunks: Vec<Vec<u8>> = items
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            let mut text = Text::with_capacity(chunk.len() * 64);
+            for item in chunk {
+                line(&mut text, item);
+            }
+            text.bytes
+        })
+        .collect();
+    for chunk in chunks {
+        out.write_all(&chunk)?;
+    }
+    Ok(())
+}
+
+/// Three floats separated by spaces, after `prefix`, and a newline.
+pub(super) fn xyz(text: &mut Text, prefix: &str, [x, y, z]: [f64; 3]) {
+    text.str(prefix);
+    text.float(x);
+    text.bytes.push(b' ');
+    text.float(y);
+    text.bytes.push(b' ');
+    text.float(z);
+    text.bytes.push(b'\n');
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ours(x: f64) -> String {
+        let mut t = Text::with_capacity(32);
+        t.float(x);
+        String::from_utf8(t.bytes).expect("ASCII")
+    }
+
+    /// Every float the same text as `{:?}`: the edges of each notation's range, and random
+    /// bit patterns (all exponents) and random values in the ranges coordinates take.
+    #[test]
+    fn floats_read_as_rust_debug_writes_them() {
+        let mut edges = vec![
+            0.0,
+            -0.0,
+            1.0,
+            2.0,
+            0.1,
+            1e-4,
+            1e-5,
+            9.999999999999999e-5,
+            1.5e-5,
+            -1.2345e-5,
+            1144061379383392.2,
+            -1144061379383392.2,
+            9.99999e-6,
+            1e-6,
+            1e16,
+            9.999999999999998e15,
+            1.5e16,
+            1e15,
+            123456789.0,
+            f64::MIN_POSITIVE,
+            f64::MAX,
+            f64::MIN,
+            5e-324,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        let mut state = 0x853c_49e6_748f_ea9bu64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..100_000 {
+            edges.push(f64::from_bits(next()));
+            let unit = (next() >> 11) as f64 / (1u64 << 53) as f64;
+            let scale = 10f64.powi((next() % 24) as i32 - 12);
+            edges.push((2.0 * unit - 1.0) * scale);
+            // Short binary fractions of every size: where ties between two shortest texts are.
+            let k = (next() >> (11 + next() % 40)) as f64;
+            edges.push(k * 2f64.powi(-((next() % 60) as i32)));
+        }
+        for x in edges {
+            assert_eq!(ours(x), format!("{x:?}"), "{:#x}", x.to_bits());
+        }
+    }
+
+    #[test]
+    fn lines_come_in_order_whatever_the_chunks() {
+        let items: Vec<u64> = (0..(3 * CHUNK as u64 + 17)).collect();
+        let mut out = Vec::new();
+        write_lines(&mut out, &items, |t, &v| {
+            t.int(v);
+            t.str("\n");
+        })
+        .expect("a Vec takes every write");
+        let expected: String = items.iter().map(|v| format!("{v}\n")).collect();
+        assert_eq!(String::from_utf8(out).expect("ASCII"), expected);
+    }
+}
