@@ -118,7 +118,19 @@ fn against_surface(
     // Edges with their uses, in (lo, hi) order (linear: `mesh::edges`).
     let edges = Edges::new(vs.len(), &mesh.triangles);
     let allowed_open = |k: u32| (k as usize) < m.fixed || m.border[k as usize];
-    let mut chord_points = Vec::with_capacity(5 * mesh.triangles.len() / 2 + 1);
+    // The chord error at every edge midpoint (in edge order), then at every centroid (in
+    // triangle order), evaluated as they come: no list of 2.5 points a triangle is kept.
+    let mut chord = |at: DVec3, h: f64, v: &mut Verdict| {
+        let error = chord_error(surface, at, tolerance, scale, sp_tol);
+        v.max_chord_error = v.max_chord_error.max(error);
+        if error > tolerance {
+            v.coarse.push(Found {
+                flaw: Flaw::Chord { error, tolerance },
+                at,
+                h,
+            });
+        }
+    };
     for (a, b, run) in edges.runs() {
         let at = 0.5 * (vs[a as usize] + vs[b as usize]);
         let h = m.h[a as usize].max(m.h[b as usize]);
@@ -131,8 +143,9 @@ fn against_surface(
         if let Some(flaw) = flaw {
             v.wrong.push(Found { flaw, at, h });
         }
-        chord_points.push((at, h));
+        chord(at, h, &mut v);
     }
+    drop(edges);
     for t in &mesh.triangles {
         let [a, b, c] = t.map(|k| vs[k as usize]);
         let n = (b - a).cross(c - a);
@@ -144,18 +157,7 @@ fn against_surface(
                 h: h_of(m, t),
             });
         }
-        chord_points.push((centroid(mesh, t), h_of(m, t)));
-    }
-    for (at, h) in chord_points {
-        let error = chord_error(surface, at, tolerance, scale, sp_tol);
-        v.max_chord_error = v.max_chord_error.max(error);
-        if error > tolerance {
-            v.coarse.push(Found {
-                flaw: Flaw::Chord { error, tolerance },
-                at,
-                h,
-            });
-        }
+        chord(centroid(mesh, t), h_of(m, t), &mut v);
     }
     v
 }
