@@ -76,7 +76,11 @@ fn every_gallery_file_is_the_same_bytes_for_any_thread_count() {
     files.sort();
     let mut meshed = 0;
     for file in &files {
-        if !all && file.file_stem().is_some_and(|s| s == "intersecting_patches") {
+        if !all
+            && file
+                .file_stem()
+                .is_some_and(|s| s == "intersecting_patches")
+        {
             continue;
         }
         assert!(same_bytes(file, &dir, &["obj", "glb"]) > 0);
