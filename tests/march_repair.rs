@@ -61,7 +61,7 @@ fn compare(name: &str, mut surface: Boxed, input: &MarchInput) {
         ..input.clone()
     };
     let off = MarchSettings {
-        improve_angle: 0.0,
+        quality_angle: 0.0,
         ..MarchSettings::default()
     };
     let raw = march(surface.as_mut(), input, &off).expect("meshes without the pass");
