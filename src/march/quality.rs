@@ -313,8 +313,7 @@ impl<'a> Stage<'a> {
         self.log = Some(Vec::new());
         let mut flips = 0;
         let kept = 'trial: {
-            let mut proj = |q: DVec3| project(surface, q);
-            let Some(p) = self.insert(t, &mut proj) else {
+            let Some(p) = self.insert(t, surface, project) else {
                 break 'trial false;
             };
             let mut star = Vec::new();
@@ -322,16 +321,30 @@ impl<'a> Stage<'a> {
                 let q: Vec<u32> = star.iter().map(|&e| next(e)).collect();
                 flips = self.flip_all(q, 64, surface, tolerance).0;
             }
-            // Smooth the new vertex, its ring, and the new vertex again.
-            let mut ring = Vec::new();
-            if self.star(p, &mut star) {
-                ring = star.iter().map(|&e| self.dst(e)).collect();
-            }
+            // Smooth the new vertex, the corners of every triangle changed, and the new
+            // vertex again.
+            let mut ring: Vec<u32> = self
+                .log
+                .iter()
+                .flatten()
+                .filter_map(|u| match u {
+                    Undo::Tri(t, _) => Some(self.tri[*t as usize]),
+                    _ => None,
+                })
+                .flatten()
+                .filter(|&v| v != p)
+                .collect();
+            ring.sort_unstable();
+            ring.dedup();
             let mut moved = vec![p];
             for v in std::iter::once(p).chain(ring).chain(std::iter::once(p)) {
                 if self.free(v) && self.star(v, &mut star) {
                     let mut proj = |q: DVec3| project(surface, q);
-                    if self.smooth(v, &star, &mut proj) {
+                    let ok = self.smooth(v, &star, &mut proj);
+                    if std::env::var_os("SURFC_QDEBUG").is_some() {
+                        eprintln!("  smooth {v} {ok} {:?}", self.pos[v as usize]);
+                    }
+                    if ok {
                         moved.push(v);
                     }
                 }
@@ -357,6 +370,12 @@ impl<'a> Stage<'a> {
                         after = after.min(self.q(self.tri[(e / 3) as usize]));
                     }
                 }
+            }
+            if std::env::var_os("SURFC_QDEBUG").is_some() {
+                eprintln!(
+                    "trial t{t} at {:?}: before {before} after {after}",
+                    self.pos[p as usize]
+                );
             }
             after > before
         };
@@ -583,14 +602,36 @@ impl<'a> Stage<'a> {
             .sum::<DVec3>()
             / star.len() as f64;
         let ab = self.angle_based(v, star);
+        // The apex of the equilateral triangle over the far edge of the fan's worst
+        // triangle (in the tangent plane): where the worst triangle wants v.
+        let ideal = star
+            .iter()
+            .map(|&e| (self.p(self.dst(e)), self.p(self.org(prev(e)))))
+            .min_by(|x, y| min_sin(p, x.0, x.1).total_cmp(&min_sin(p, y.0, y.1)))
+            .map_or(p, |(b, c)| {
+                let d = c - b;
+                let left = n.cross(d).normalize_or_zero();
+                let m = 0.5 * (b + c);
+                let m = m - (m - p).dot(n) * n;
+                m + left * (d.length() * 3f64.sqrt() / 2.0)
+            });
+        // Better: the worst angle rises, or stays and the radius ratios rise.
         let better = |s: &Self, q: DVec3| {
             let (w, _, sum) = s.star_quality(star, q);
-            w >= old_worst && sum > old_sum + 1e-12 * star.len() as f64
+            w > old_worst * (1.0 + 1e-6)
+                || (w >= old_worst && sum > old_sum + 1e-12 * star.len() as f64)
         };
-        let Some(target) = [ab, ring_mean, 0.5 * (p + ab), 0.5 * (p + ring_mean)]
-            .into_iter()
-            .find(|&q| better(self, q))
-        else {
+        let Some(target) = [
+            ab,
+            ring_mean,
+            0.5 * (p + ab),
+            0.5 * (p + ring_mean),
+            0.5 * (p + ideal),
+            0.75 * p + 0.25 * ideal,
+            0.875 * p + 0.125 * ideal,
+        ]
+        .into_iter()
+        .find(|&q| better(self, q)) else {
             return false;
         };
         let Some((sp, sn)) = project(target) else {
@@ -622,15 +663,28 @@ impl<'a> Stage<'a> {
     fn insert(
         &mut self,
         t: u32,
-        project: &mut dyn FnMut(DVec3) -> Option<(DVec3, DVec3)>,
+        surface: &mut dyn Surface,
+        project: &mut dyn FnMut(&mut dyn Surface, DVec3) -> Option<(DVec3, DVec3)>,
     ) -> Option<u32> {
         let tv = self.tri[t as usize];
         if tv.iter().any(|&v| self.frozen[v as usize]) {
             return None;
         }
         let [a, b, c] = self.corners(tv);
-        // k: the shortest edge tv[k]→tv[k+1]; r the corner opposite.
         let lens = [a.distance(b), b.distance(c), c.distance(a)];
+        // A cap on the box: its longest edge runs along a face; split it on the face.
+        let long = (0..3)
+            .max_by(|&i, &j| lens[i].total_cmp(&lens[j]))
+            .unwrap_or(0);
+        let e = 3 * t + long as u32;
+        if self.twin[e as usize] == NONE {
+            if let Some(p) = self.split_on_face(e, surface) {
+                return Some(p);
+            }
+        }
+        let mut proj = |q: DVec3| project(surface, q);
+        let project = &mut proj;
+        // k: the shortest edge tv[k]→tv[k+1]; r the corner opposite.
         let k = (0..3)
             .min_by(|&i, &j| lens[i].total_cmp(&lens[j]))
             .unwrap_or(0);
@@ -663,6 +717,68 @@ impl<'a> Stage<'a> {
             let s = ((o - x).dot(y - x) / (y - x).length_squared()).clamp(0.25, 0.75);
             self.split_edge(e, x + s * (y - x), project)
         }
+    }
+
+    /// Splits the boundary edge of half-edge e, between two border points on one face of
+    /// the box, at the point of the surface on that face nearest its midpoint; the new
+    /// vertex is a border point.
+    fn split_on_face(&mut self, e: u32, surface: &mut dyn Surface) -> Option<u32> {
+        let (a, b, c) = (self.org(e), self.dst(e), self.org(prev(e)));
+        let (lo, hi) = self.bbox?;
+        let (pa, pb) = (self.p(a), self.p(b));
+        if std::env::var_os("SURFC_QDEBUG").is_some() {
+            eprintln!("face split {pa} {pb} box {lo} {hi}");
+        }
+        if !(self.border[a as usize] && self.border[b as usize]) || self.constrained(a, b) {
+            return None;
+        }
+        let (axis, value) = (0..3).find_map(|k| {
+            [lo[k], hi[k]]
+                .into_iter()
+                .find(|&v| pa[k] == v && pb[k] == v)
+                .map(|v| (k, v))
+        })?;
+        let scale = self.h_of(&[a, b]);
+        let dbg = std::env::var_os("SURFC_QDEBUG").is_some();
+        let Some((sp, sn)) = face_point(surface, 0.5 * (pa + pb), axis, value, scale) else {
+            if dbg {
+                eprintln!("  no face point");
+            }
+            return None;
+        };
+        if !self.in_box(sp) {
+            if dbg {
+                eprintln!("  out of box");
+            }
+            return None;
+        }
+        let pc = self.p(c);
+        for (x, y) in [(pa, sp), (sp, pb)] {
+            let n = (y - x).cross(pc - x);
+            if !(n.dot(sn) > 0.0 && n.dot(self.normal[c as usize]) > 0.0) {
+                if dbg {
+                    eprintln!("  facing");
+                }
+                return None;
+            }
+        }
+        let h = self.h_of(&[a, b, c]);
+        let p = self.new_vertex(sp, sn, h);
+        self.border[p as usize] = true;
+        let (o_bc, o_ca) = (self.twin[next(e) as usize], self.twin[prev(e) as usize]);
+        let t = e / 3;
+        let n1 = self.tri.len() as u32;
+        self.tri.push([0; 3]);
+        self.twin.extend([NONE; 3]);
+        // t = [a, p, c]: a→p (open), p→c, c→a; n1 = [p, b, c]: p→b (open), b→c, c→p.
+        self.set(t, [a, p, c]);
+        self.set(n1, [p, b, c]);
+        self.link(3 * t, NONE);
+        self.link(3 * t + 1, 3 * n1 + 2);
+        self.link(3 * t + 2, o_ca);
+        self.link(3 * n1, NONE);
+        self.link(3 * n1 + 1, o_bc);
+        Some(p)
     }
 
     fn new_vertex(&mut self, p: DVec3, n: DVec3, h: f64) -> u32 {
@@ -887,6 +1003,41 @@ impl<'a> Stage<'a> {
         report.below_after = bad_count(self);
         report
     }
+}
+
+/// The point of the surface in the plane x[axis] = value nearest q (Newton on f with the
+/// gradient's component along the axis removed), its unit normal; None if it does not
+/// converge to within 1e-13·scale.
+fn face_point(
+    surface: &mut dyn Surface,
+    q: DVec3,
+    axis: usize,
+    value: f64,
+    scale: f64,
+) -> Option<(DVec3, DVec3)> {
+    let mut u = q;
+    u[axis] = value;
+    for _ in 0..32 {
+        let vg = surface.value_gradient(u);
+        let mut g = vg.gradient;
+        g[axis] = 0.0;
+        let gg = g.length_squared();
+        if !(vg.value.is_finite() && gg > 0.0 && gg.is_finite()) {
+            return None;
+        }
+        let step = g * (vg.value / gg);
+        if step.length() > scale {
+            // The surface runs nearly parallel to the face here.
+            return None;
+        }
+        u -= step;
+        u[axis] = value;
+        if step.length() <= (1e-12 * scale).max(8.0 * f64::EPSILON * u.abs().max_element()) {
+            let n = surface.value_gradient(u).gradient.normalize_or_zero();
+            return (n != DVec3::ZERO).then_some((u, n));
+        }
+    }
+    None
 }
 
 /// The circumcentre of triangle (a, b, c), or None if degenerate.
