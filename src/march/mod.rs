@@ -316,6 +316,7 @@ fn improve(
         // One more Newton step's worth of accuracy is what the marcher's points have.
         Some((sp.point, sp.normal))
     };
+    let started = std::time::Instant::now();
     let report = quality::Stage::new(
         &mut m.mesh.vertices,
         &mut m.mesh.normals,
@@ -328,7 +329,7 @@ fn improve(
     .run(&limits, surface, &mut project);
     if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
         eprintln!(
-            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es) in {} round(s); stopped: {}",
+            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es) in {} round(s), {:.3} s; stopped: {}",
             report.below_before,
             limits.angle.to_degrees(),
             report.below_after,
@@ -336,6 +337,7 @@ fn improve(
             report.moves,
             report.inserted,
             report.rounds,
+            started.elapsed().as_secs_f64(),
             report.stop
         );
     }

@@ -36,6 +36,16 @@ const FOLD_COS: f64 = 0.8;
 /// cocircular quads do not flip back and forth under rounding.
 const DELAUNAY_MARGIN: f64 = 1e-3;
 
+/// A smoothing move must raise the sum of its fan's radius ratios by this much (unless it
+/// raises the fan's smallest angle): vertices that have converged stop moving, and stop
+/// marking their neighbours for the next round, so the rounds after the first cost little.
+const SMOOTH_GAIN: f64 = 2e-3;
+
+/// Only fans with a triangle of radius ratio below this are smoothed: the marcher's
+/// triangles are near-equilateral almost everywhere, and a fan of good triangles gains
+/// little for the cost of a surfacepoint.
+const SMOOTH_BELOW: f64 = 0.95;
+
 /// What the stage aims at and how much it may do.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Limits {
@@ -171,14 +181,14 @@ impl<'a> Stage<'a> {
             for &e in outs {
                 let b = dst(e) as usize;
                 let same = outs.iter().filter(|&&f| dst(f) as usize == b).count();
-                let back: Vec<u32> = list[start[b] as usize..start[b + 1] as usize]
+                let mut back = list[start[b] as usize..start[b + 1] as usize]
                     .iter()
                     .copied()
-                    .filter(|&f| dst(f) as usize == a)
-                    .collect();
-                if same == 1 && back.len() == 1 {
-                    twin[e as usize] = back[0];
-                } else if same > 1 || back.len() > 1 {
+                    .filter(|&f| dst(f) as usize == a);
+                let (first, more) = (back.next(), back.next().is_some());
+                if let (1, false, Some(f)) = (same, more, first) {
+                    twin[e as usize] = f;
+                } else if same > 1 || more {
                     frozen[a] = true;
                     frozen[b] = true;
                 }
@@ -340,11 +350,7 @@ impl<'a> Stage<'a> {
             for v in std::iter::once(p).chain(ring).chain(std::iter::once(p)) {
                 if self.free(v) && self.star(v, &mut star) {
                     let mut proj = |q: DVec3| project(surface, q);
-                    let ok = self.smooth(v, &star, &mut proj);
-                    if std::env::var_os("SURFC_QDEBUG").is_some() {
-                        eprintln!("  smooth {v} {ok} {:?}", self.pos[v as usize]);
-                    }
-                    if ok {
+                    if self.smooth(v, &star, &mut proj) {
                         moved.push(v);
                     }
                 }
@@ -370,12 +376,6 @@ impl<'a> Stage<'a> {
                         after = after.min(self.q(self.tri[(e / 3) as usize]));
                     }
                 }
-            }
-            if std::env::var_os("SURFC_QDEBUG").is_some() {
-                eprintln!(
-                    "trial t{t} at {:?}: before {before} after {after}",
-                    self.pos[p as usize]
-                );
             }
             after > before
         };
@@ -587,7 +587,10 @@ impl<'a> Stage<'a> {
         project: &mut dyn FnMut(DVec3) -> Option<(DVec3, DVec3)>,
     ) -> bool {
         let p = self.p(v);
-        let (old_worst, _, old_sum) = self.star_quality(star, p);
+        let (old_worst, old_worst_rr, old_sum) = self.star_quality(star, p);
+        if old_worst_rr >= SMOOTH_BELOW {
+            return false;
+        }
         let longest = star
             .iter()
             .map(|&e| p.distance_squared(self.p(self.dst(e))))
@@ -618,8 +621,7 @@ impl<'a> Stage<'a> {
         // Better: the worst angle rises, or stays and the radius ratios rise.
         let better = |s: &Self, q: DVec3| {
             let (w, _, sum) = s.star_quality(star, q);
-            w > old_worst * (1.0 + 1e-6)
-                || (w >= old_worst && sum > old_sum + 1e-12 * star.len() as f64)
+            w > old_worst * (1.0 + 1e-6) || (w >= old_worst && sum > old_sum + SMOOTH_GAIN)
         };
         let Some(target) = [
             ab,
@@ -726,9 +728,6 @@ impl<'a> Stage<'a> {
         let (a, b, c) = (self.org(e), self.dst(e), self.org(prev(e)));
         let (lo, hi) = self.bbox?;
         let (pa, pb) = (self.p(a), self.p(b));
-        if std::env::var_os("SURFC_QDEBUG").is_some() {
-            eprintln!("face split {pa} {pb} box {lo} {hi}");
-        }
         if !(self.border[a as usize] && self.border[b as usize]) || self.constrained(a, b) {
             return None;
         }
@@ -739,26 +738,14 @@ impl<'a> Stage<'a> {
                 .map(|v| (k, v))
         })?;
         let scale = self.h_of(&[a, b]);
-        let dbg = std::env::var_os("SURFC_QDEBUG").is_some();
-        let Some((sp, sn)) = face_point(surface, 0.5 * (pa + pb), axis, value, scale) else {
-            if dbg {
-                eprintln!("  no face point");
-            }
-            return None;
-        };
+        let (sp, sn) = face_point(surface, 0.5 * (pa + pb), axis, value, scale)?;
         if !self.in_box(sp) {
-            if dbg {
-                eprintln!("  out of box");
-            }
             return None;
         }
         let pc = self.p(c);
         for (x, y) in [(pa, sp), (sp, pb)] {
             let n = (y - x).cross(pc - x);
             if !(n.dot(sn) > 0.0 && n.dot(self.normal[c as usize]) > 0.0) {
-                if dbg {
-                    eprintln!("  facing");
-                }
                 return None;
             }
         }
