@@ -41,10 +41,11 @@ const DELAUNAY_MARGIN: f64 = 1e-3;
 /// marking their neighbours for the next round, so the rounds after the first cost little.
 const SMOOTH_GAIN: f64 = 2e-3;
 
-/// Only fans with a triangle of radius ratio below this are smoothed: the marcher's
+/// Only fans with a triangle of radius ratio below this are smoothed by the sweeps over the
+/// whole mesh (around an insertion every fan is): the marcher's
 /// triangles are near-equilateral almost everywhere, and a fan of good triangles gains
 /// little for the cost of a surfacepoint.
-const SMOOTH_BELOW: f64 = 0.95;
+const SMOOTH_BELOW: f64 = 0.97;
 
 /// What the stage aims at and how much it may do.
 #[derive(Clone, Copy, Debug)]
@@ -350,7 +351,7 @@ impl<'a> Stage<'a> {
             for v in std::iter::once(p).chain(ring).chain(std::iter::once(p)) {
                 if self.free(v) && self.star(v, &mut star) {
                     let mut proj = |q: DVec3| project(surface, q);
-                    if self.smooth(v, &star, &mut proj) {
+                    if self.smooth(v, &star, f64::INFINITY, &mut proj) {
                         moved.push(v);
                     }
                 }
@@ -584,11 +585,12 @@ impl<'a> Stage<'a> {
         &mut self,
         v: u32,
         star: &[u32],
+        below: f64,
         project: &mut dyn FnMut(DVec3) -> Option<(DVec3, DVec3)>,
     ) -> bool {
         let p = self.p(v);
         let (old_worst, old_worst_rr, old_sum) = self.star_quality(star, p);
-        if old_worst_rr >= SMOOTH_BELOW {
+        if old_worst_rr >= below {
             return false;
         }
         let longest = star
@@ -936,7 +938,7 @@ impl<'a> Stage<'a> {
                     continue;
                 }
                 let mut proj = |q: DVec3| project(surface, q);
-                if self.smooth(v, &star, &mut proj) {
+                if self.smooth(v, &star, SMOOTH_BELOW, &mut proj) {
                     moves += 1;
                     moved[v as usize] = true;
                 }
