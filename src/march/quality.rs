@@ -1051,3 +1051,219 @@ fn barycentric(a: DVec3, b: DVec3, c: DVec3, o: DVec3) -> Option<[f64; 3]> {
     let wb = (a - c).cross(o - c).dot(n) / area;
     Some([wa, wb, 1.0 - wa - wb])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::surface::ValueGrad;
+
+    /// The plane z = 0 with ∇f = +z.
+    struct Plane;
+
+    impl Surface for Plane {
+        fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+            ValueGrad {
+                value: p.z,
+                gradient: DVec3::Z,
+            }
+        }
+    }
+
+    fn onto_plane(_: &mut dyn Surface, q: DVec3) -> Option<(DVec3, DVec3)> {
+        Some((DVec3::new(q.x, q.y, 0.0), DVec3::Z))
+    }
+
+    struct Case {
+        pos: Vec<DVec3>,
+        normal: Vec<DVec3>,
+        tri: Vec<[u32; 3]>,
+        border: Vec<bool>,
+        h: Vec<f64>,
+    }
+
+    impl Case {
+        fn new(pos: Vec<DVec3>, tri: Vec<[u32; 3]>) -> Self {
+            let n = pos.len();
+            Case {
+                pos,
+                normal: vec![DVec3::Z; n],
+                tri,
+                border: vec![false; n],
+                h: vec![1.0; n],
+            }
+        }
+
+        /// Runs the stage with the first `fixed` vertices as polygon vertices.
+        fn run(&mut self, fixed: usize) -> Report {
+            let limits = Limits {
+                angle: 0.524,
+                rounds: 6,
+                insert_fraction: 0.05,
+                tolerance: 0.1,
+            };
+            Stage::new(
+                &mut self.pos,
+                &mut self.normal,
+                &mut self.tri,
+                &mut self.border,
+                &mut self.h,
+                fixed,
+                None,
+            )
+            .run(&limits, &mut Plane, &mut onto_plane)
+        }
+
+        fn worst_deg(&self) -> f64 {
+            self.tri
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|v| self.pos[v as usize]);
+                    min_sin(a, b, c).asin().to_degrees()
+                })
+                .fold(f64::INFINITY, f64::min)
+        }
+
+        /// χ = V − E + F over the vertices used.
+        fn euler(&self) -> i64 {
+            let mut edges: Vec<(u32, u32)> = self
+                .tri
+                .iter()
+                .flat_map(|t| {
+                    (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])))
+                })
+                .collect();
+            edges.sort_unstable();
+            edges.dedup();
+            let mut used: Vec<u32> = self.tri.iter().flatten().copied().collect();
+            used.sort_unstable();
+            used.dedup();
+            used.len() as i64 - edges.len() as i64 + self.tri.len() as i64
+        }
+
+        /// Every triangle counter-clockwise seen from +z (faces ∇f).
+        fn all_up(&self) -> bool {
+            self.tri.iter().all(|t| {
+                let [a, b, c] = t.map(|v| self.pos[v as usize]);
+                (b - a).cross(c - a).z > 0.0
+            })
+        }
+    }
+
+    /// Two triangles over the quad a(0,0) b(2,0) c(1,0.2) d(1,−1.5): the shared edge a–b
+    /// makes (a, b, c) an 11° sliver; the quad is not Delaunay over a–b.
+    fn sliver_pair() -> Case {
+        Case::new(
+            vec![
+                DVec3::new(0.0, 0.0, 0.0),
+                DVec3::new(2.0, 0.0, 0.0),
+                DVec3::new(1.0, 0.2, 0.0),
+                DVec3::new(1.0, -1.5, 0.0),
+            ],
+            vec![[0, 1, 2], [1, 0, 3]],
+        )
+    }
+
+    #[test]
+    fn radius_ratio_is_one_for_an_equilateral_triangle() {
+        let h = 3f64.sqrt() / 2.0;
+        let r = radius_ratio(DVec3::ZERO, DVec3::X, DVec3::new(0.5, h, 0.0));
+        assert!((r - 1.0).abs() < 1e-12, "{r}");
+        // Right isosceles: r_in = 1 − 1/√2, r_circ = 1/√2 (legs 1): 2·r_in/r_circ = 2(√2 − 1).
+        let r = radius_ratio(DVec3::ZERO, DVec3::X, DVec3::Y);
+        assert!((r - 2.0 * (2f64.sqrt() - 1.0)).abs() < 1e-12, "{r}");
+        assert_eq!(radius_ratio(DVec3::ZERO, DVec3::X, 2.0 * DVec3::X), 0.0);
+    }
+
+    #[test]
+    fn a_non_delaunay_pair_is_flipped() {
+        let mut c = sliver_pair();
+        let before = c.worst_deg();
+        let report = c.run(0);
+        assert!(report.flips >= 1, "{report:?}");
+        assert!(c.worst_deg() > before);
+        assert!(c.all_up());
+        // Corner 0 and 1 lost their shared edge (c–d is the diagonal now).
+        assert!(
+            c.tri.iter().all(|t| !(t.contains(&0) && t.contains(&1))),
+            "{:?}",
+            c.tri
+        );
+    }
+
+    #[test]
+    fn an_edge_between_polygon_vertices_is_never_flipped_or_split() {
+        let mut c = sliver_pair();
+        c.run(4);
+        assert!(c.tri.iter().any(|t| t.contains(&0) && t.contains(&1)));
+        assert_eq!(c.pos.len(), 4, "no vertex on a polygon edge");
+    }
+
+    /// A fan of 6 around a free vertex pushed close to one rim edge.
+    fn fan() -> Case {
+        let mut pos = vec![DVec3::new(0.7, 0.05, 0.0)];
+        for k in 0..6 {
+            let a = std::f64::consts::FRAC_PI_3 * k as f64;
+            pos.push(DVec3::new(a.cos(), a.sin(), 0.0));
+        }
+        let tri = (0..6u32).map(|k| [0, 1 + k, 1 + (k + 1) % 6]).collect();
+        Case::new(pos, tri)
+    }
+
+    #[test]
+    fn a_free_vertex_moves_onto_the_surface_and_polygon_vertices_stay() {
+        let mut c = fan();
+        c.pos.rotate_left(1);
+        // Vertex 6 is the centre now; the rim (0..6) is the polygon.
+        for t in c.tri.iter_mut() {
+            *t = t.map(|v| (v + 6) % 7);
+        }
+        let rim: Vec<DVec3> = c.pos[..6].to_vec();
+        let before = c.worst_deg();
+        c.run(6);
+        assert_eq!(&c.pos[..6], &rim[..], "polygon vertices keep their bits");
+        assert!(c.worst_deg() > before.max(45.0), "{}", c.worst_deg());
+        assert!(c.pos.iter().all(|p| p.z == 0.0));
+        assert!(c.all_up());
+        assert_eq!(c.euler(), 1);
+    }
+
+    #[test]
+    fn a_strip_of_needles_is_lifted_and_the_topology_stays() {
+        // A strip of 17° needles between two rows of free vertices (flips, moves and
+        // insertions may all take part).
+        let mut pos = Vec::new();
+        for i in 0..6 {
+            pos.push(DVec3::new(0.3 * i as f64, 0.0, 0.0));
+        }
+        for i in 0..6 {
+            pos.push(DVec3::new(0.3 * i as f64 + 0.15, 1.0, 0.0));
+        }
+        let mut tri = Vec::new();
+        for i in 0..5u32 {
+            tri.push([i, i + 1, i + 6]);
+            tri.push([i + 1, i + 7, i + 6]);
+        }
+        let mut c = Case::new(pos, tri);
+        let (chi, before) = (c.euler(), c.worst_deg());
+        let report = c.run(0);
+        assert!(c.worst_deg() > before + 5.0, "{} vs {before}: {report:?}", c.worst_deg());
+        assert_eq!(c.euler(), chi);
+        assert!(c.all_up());
+        assert!(c.pos.iter().all(|p| p.z == 0.0));
+    }
+
+    #[test]
+    fn the_same_input_gives_the_same_bits() {
+        let (mut a, mut b) = (fan(), fan());
+        a.run(0);
+        b.run(0);
+        let bits = |c: &Case| -> Vec<u64> {
+            c.pos
+                .iter()
+                .flat_map(|p| p.to_array().map(f64::to_bits))
+                .collect()
+        };
+        assert_eq!(bits(&a), bits(&b));
+        assert_eq!(a.tri, b.tri);
+    }
+}
