@@ -22,6 +22,9 @@ use glam::DVec3;
 
 use crate::surface::Surface;
 
+/// Puts a point near the surface onto it: the surface point and its unit normal, or None.
+pub(super) type Project<'a> = dyn FnMut(&mut dyn Surface, DVec3) -> Option<(DVec3, DVec3)> + 'a;
+
 /// No half-edge across (a boundary edge, or an edge in more than two triangles).
 const NONE: u32 = u32::MAX;
 
@@ -164,10 +167,9 @@ impl<'a> Stage<'a> {
         let mut fill = start.clone();
         let mut list = vec![0u32; 3 * tri.len()];
         for (i, t) in tri.iter().enumerate() {
-            for k in 0..3 {
-                let v = t[k] as usize;
-                list[fill[v] as usize] = 3 * i as u32 + k as u32;
-                fill[v] += 1;
+            for (k, &v) in t.iter().enumerate() {
+                list[fill[v as usize] as usize] = 3 * i as u32 + k as u32;
+                fill[v as usize] += 1;
             }
         }
         let mut twin = vec![NONE; 3 * tri.len()];
@@ -317,7 +319,7 @@ impl<'a> Stage<'a> {
         t: u32,
         surface: &mut dyn Surface,
         tolerance: f64,
-        project: &mut dyn FnMut(&mut dyn Surface, DVec3) -> Option<(DVec3, DVec3)>,
+        project: &mut Project<'_>,
     ) -> (bool, usize) {
         let before = self.q(self.tri[t as usize]);
         let (points, triangles) = (self.pos.len(), self.tri.len());
@@ -668,7 +670,7 @@ impl<'a> Stage<'a> {
         &mut self,
         t: u32,
         surface: &mut dyn Surface,
-        project: &mut dyn FnMut(&mut dyn Surface, DVec3) -> Option<(DVec3, DVec3)>,
+        project: &mut Project<'_>,
     ) -> Option<u32> {
         let tv = self.tri[t as usize];
         if tv.iter().any(|&v| self.frozen[v as usize]) {
@@ -904,7 +906,7 @@ impl<'a> Stage<'a> {
         &mut self,
         limits: &Limits,
         surface: &mut dyn Surface,
-        project: &mut dyn FnMut(&mut dyn Surface, DVec3) -> Option<(DVec3, DVec3)>,
+        project: &mut Project<'_>,
     ) -> Report {
         let sin_bad = limits.angle.sin();
         let bad_count = |s: &Self| s.tri.iter().filter(|&&t| s.q(t) < sin_bad).count();
