@@ -1248,7 +1248,11 @@ mod tests {
         let mut c = Case::new(pos, tri);
         let (chi, before) = (c.euler(), c.worst_deg());
         let report = c.run(0);
-        assert!(c.worst_deg() > before + 5.0, "{} vs {before}: {report:?}", c.worst_deg());
+        assert!(
+            c.worst_deg() > before + 5.0,
+            "{} vs {before}: {report:?}",
+            c.worst_deg()
+        );
         assert_eq!(c.euler(), chi);
         assert!(c.all_up());
         assert!(c.pos.iter().all(|p| p.z == 0.0));
