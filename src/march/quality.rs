@@ -453,15 +453,7 @@ impl<'a> Stage<'a> {
         if !(g > 0.0 && vg.value.abs() / g <= tolerance) {
             return false;
         }
-        // The outer half-edges: a→d, d→b in u; b→c, c→a in t.
-        let (ad, db) = (next(f), prev(f));
-        let (bc, ca) = (next(e), prev(e));
-        let (o_ad, o_db, o_bc, o_ca) = (
-            self.twin[ad as usize],
-            self.twin[db as usize],
-            self.twin[bc as usize],
-            self.twin[ca as usize],
-        );
+        let [o_ad, o_db, o_bc, o_ca] = self.outer(e, f);
         let (t, u) = (e / 3, f / 3);
         self.set(t, nt);
         self.set(u, nu);
@@ -472,6 +464,12 @@ impl<'a> Stage<'a> {
         self.link(3 * u, o_db);
         self.link(3 * u + 1, o_bc);
         true
+    }
+
+    /// The twins of the four outer edges of the quad over half-edge e = a→b (in t, with c)
+    /// and its twin f = b→a (in u, with d): [a→d, d→b, b→c, c→a].
+    fn outer(&self, e: u32, f: u32) -> [u32; 4] {
+        [next(f), prev(f), next(e), prev(e)].map(|x| self.twin[x as usize])
     }
 
     /// Whether a and b are joined by an edge (searched around a, both ways from out[a]).
@@ -868,14 +866,7 @@ impl<'a> Stage<'a> {
         }
         let h = self.h_of(&[a, b, c, d]);
         let p = self.new_vertex(sp, sn, h);
-        let (bc, ca) = (next(e), prev(e));
-        let (ad, db) = (next(f), prev(f));
-        let (o_bc, o_ca, o_ad, o_db) = (
-            self.twin[bc as usize],
-            self.twin[ca as usize],
-            self.twin[ad as usize],
-            self.twin[db as usize],
-        );
+        let [o_ad, o_db, o_bc, o_ca] = self.outer(e, f);
         let (t, u) = (e / 3, f / 3);
         let n1 = self.tri.len() as u32;
         let n2 = n1 + 1;
