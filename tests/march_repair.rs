@@ -54,7 +54,7 @@ fn print_worst(name: &str, m: &Mesh, step: f64) {
 }
 
 fn compare(name: &str, mut surface: Boxed, input: &MarchInput, min_angle: f64) {
-    // The repair pass on the paper's meshes: with the local step the two runs may refine
+    // The quality stage on the paper's meshes: with the local step the two runs may refine
     // differently.
     let input = &MarchInput {
         uniform: true,
