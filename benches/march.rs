@@ -4,8 +4,9 @@
 //! surface (printed once per case, measured with a timing wrapper around the surface).
 //! `components/…`: genus 3 at step 0.3 meshed from its box alone (the component search of
 //! `survey::components`) against the same box with a start point, and the search's share of
-//! the time (printed once). `verify/crossings_sphere_0.01`: the crossing check of the
-//! verification alone on the 1.3 M-triangle sphere.
+//! the time (printed once). `quality/sphere_0.01_{off,on}`: the sphere at step 0.01 with the
+//! quality stage off and on (its cost). `verify/crossings_sphere_0.01`: the crossing check of
+//! the verification alone on the 1.3 M-triangle sphere.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -116,6 +117,28 @@ fn case_with<S: Surface>(
             black_box(march(&mut s, black_box(&input), &settings).map(|m| m.triangles.len()))
         })
     });
+    g.finish();
+}
+
+/// The quality stage's share of the meshing time (issue 13, M4: aim ≤ 15 %): the sphere at
+/// step 0.01 meshed with the stage off (`quality_angle = 0`) and on, interleaved in one run.
+fn quality_share(c: &mut Criterion, start: DVec3) {
+    let input = MarchInput::from_point(0.01, start);
+    let off = MarchSettings {
+        quality_angle: 0.0,
+        ..MarchSettings::default()
+    };
+    let on = MarchSettings::default();
+    let mut g = c.benchmark_group("quality");
+    g.sample_size(10);
+    for (name, settings) in [("sphere_0.01_off", off), ("sphere_0.01_on", on)] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let mut s = sphere();
+                black_box(march(&mut s, black_box(&input), &settings).map(|m| m.triangles.len()))
+            })
+        });
+    }
     g.finish();
 }
 
@@ -243,6 +266,7 @@ fn benches(c: &mut Criterion) {
             ..MarchInput::from_point(0.01, s)
         },
     );
+    quality_share(c, s);
     let g = DVec3::new(0.0, 3.0, 0.0);
     case(c, "genus3_0.3", genus3, 0.3, g);
     case(c, "genus3_0.05", genus3, 0.05, g);

@@ -108,11 +108,26 @@ fn row_of(file: &str, name: &str) -> Option<&'static Row> {
     ROWS.iter().find(|r| r.file == file && r.mesh == name)
 }
 
-/// Meshes whose smallest angle falls below the checker's default 15°, with what they reach.
-/// The dist-product sheets of Sect. 3.7, every sheet found in the box and meshed with the
-/// local step, leave a few 13.8° triangles where fronts of a sheet meet near the box's edges;
-/// the quality stage of the issue "Every triangle at 30° or more" is to lift them.
-const SMALLEST_ANGLE: [(&str, &str, f64); 1] = [("intersecting_patches", "patches", 13.5)];
+/// The smallest angle of every gallery mesh (DESIGN.md §6: CGAL's 30°), after the quality
+/// stage (issue 13).
+const MIN_ANGLE_DEG: f64 = 30.0;
+
+/// Meshes that stay below `MIN_ANGLE_DEG`, with what they reach. None of them is a sharp
+/// given corner: each is a triangle on a box face whose two corners on the face are border
+/// points (which never move) and whose free corner cannot move without lowering another
+/// angle, while the off-centre or the face split there is refused on trial (it would make a
+/// worse triangle). They are the quality stage's open item (docs/marcher.md).
+const SMALLEST_ANGLE: [(&str, &str, f64); 3] = [
+    ("intersecting_patches", "patches", 26.0),
+    ("intersecting_patches", "patches_offset", 24.0),
+    ("three_cylinders", "three_cylinders", 27.0),
+];
+
+/// The mean radius ratio (2·r_in/r_circ) every gallery mesh keeps. DESIGN.md §6 asks for
+/// 0.97; the meshes where the local step grades (genus 3, the dist-product sheets, six-peak,
+/// three cylinders, the six-hole sphere's circles) reach 0.954–0.966 (docs/marcher.md), so
+/// this is the floor they hold, not the goal.
+const MEAN_RADIUS_RATIO: f64 = 0.95;
 
 /// Checks one mesh; returns the violations as readable lines.
 fn violations(file: &str, m: &Meshed) -> Vec<String> {
@@ -120,7 +135,7 @@ fn violations(file: &str, m: &Meshed) -> Vec<String> {
     let min_angle_deg = SMALLEST_ANGLE
         .iter()
         .find(|(f, mesh, _)| *f == file && *mesh == m.name)
-        .map_or(Expect::default().min_angle_deg, |&(_, _, angle)| angle);
+        .map_or(MIN_ANGLE_DEG, |&(_, _, angle)| angle);
     let expect = Expect {
         min_angle_deg,
         closed: row.is_some_and(|r| r.closed),
@@ -132,6 +147,12 @@ fn violations(file: &str, m: &Meshed) -> Vec<String> {
     };
     let (_, found) = check(&m.mesh, None, &expect);
     let mut lines: Vec<String> = found.iter().map(|v| format!("{v:?}")).collect();
+    let radius_ratio = quality(&m.mesh).radius_ratio_mean;
+    if radius_ratio < MEAN_RADIUS_RATIO {
+        lines.push(format!(
+            "mean radius ratio {radius_ratio:.4} < {MEAN_RADIUS_RATIO}"
+        ));
+    }
     if m.report.max_vertex_error > 1e-9 * m.step {
         lines.push(format!(
             "vertex error {:e} > 1e-9·step",

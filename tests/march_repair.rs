@@ -1,9 +1,10 @@
-//! The repair pass (docs/marcher.md, "Repair pass"): the same input meshed with the pass off
-//! (`improve_angle = 0`) and on. The pass must keep the vertex count, the triangle count,
-//! the Euler characteristic and the boundary loops, never move a vertex on a box face, raise
-//! (or keep) the smallest angle to at least 15°, and leave the bulk of the triangles alone
-//! (median within 1°). The worst triangle of the unrepaired mesh is printed with its
-//! neighbourhood (run with --nocapture), which is how the thin triangles were diagnosed.
+//! The quality stage (docs/marcher.md, "Quality stage"): the same input meshed with the stage
+//! off (`quality_angle = 0`) and on. The stage must keep the Euler characteristic and the
+//! boundary loops, add vertices only by insertion (never remove one: V and T grow together,
+//! T − 2V unchanged on a closed surface), never move a vertex on a box face, raise the
+//! smallest angle and the mean radius ratio, and not lower the median. The worst triangle of
+//! the raw mesh is printed with its neighbourhood (run with --nocapture), which is how the
+//! thin triangles were diagnosed.
 
 mod common;
 
@@ -52,8 +53,8 @@ fn print_worst(name: &str, m: &Mesh, step: f64) {
     }
 }
 
-fn compare(name: &str, mut surface: Boxed, input: &MarchInput) {
-    // The repair pass on the paper's meshes: with the local step the two runs may refine
+fn compare(name: &str, mut surface: Boxed, input: &MarchInput, min_angle: f64) {
+    // The quality stage on the paper's meshes: with the local step the two runs may refine
     // differently.
     let input = &MarchInput {
         uniform: true,
@@ -61,17 +62,21 @@ fn compare(name: &str, mut surface: Boxed, input: &MarchInput) {
         ..input.clone()
     };
     let off = MarchSettings {
-        improve_angle: 0.0,
+        quality_angle: 0.0,
         ..MarchSettings::default()
     };
     let raw = march(surface.as_mut(), input, &off).expect("meshes without the pass");
     let fixed = march(surface.as_mut(), input, &MarchSettings::default()).expect("meshes");
     print_worst(name, &raw, input.step);
-    assert_eq!(raw.vertices.len(), fixed.vertices.len(), "{name}");
-    assert_eq!(raw.triangles.len(), fixed.triangles.len(), "{name}");
+    assert!(raw.vertices.len() <= fixed.vertices.len(), "{name}");
     let (tr, tf) = (topology(&raw), topology(&fixed));
+    if tr.boundary_edges.is_empty() {
+        let excess = |m: &Mesh| m.triangles.len() as i64 - 2 * m.vertices.len() as i64;
+        assert_eq!(excess(&raw), excess(&fixed), "{name}");
+    }
     assert_eq!(tr.euler_characteristic, tf.euler_characteristic, "{name}");
-    assert_eq!(tr.boundary_loops, tf.boundary_loops, "{name}");
+    // Face splits add vertices to the loops on the box; their number stays.
+    assert_eq!(tr.boundary_loops.len(), tf.boundary_loops.len(), "{name}");
     if let Some((lo, hi)) = input.bbox {
         for (p, q) in raw.vertices.iter().zip(&fixed.vertices) {
             let on_face = |p: DVec3| (0..3).any(|k| p[k] == lo[k] || p[k] == hi[k]);
@@ -82,20 +87,20 @@ fn compare(name: &str, mut surface: Boxed, input: &MarchInput) {
     }
     let (qr, qf) = (quality(&raw), quality(&fixed));
     println!(
-        "{name}: smallest angle {:.1}° → {:.1}°, 1 % {:.1}° → {:.1}°, median {:.1}° → {:.1}°",
+        "{name}: smallest angle {:.1}° → {:.1}°, 1 % {:.1}° → {:.1}°, median {:.1}° → {:.1}°, mean radius ratio {:.4} → {:.4}",
         qr.min_angle_deg,
         qf.min_angle_deg,
         qr.p1_angle_deg,
         qf.p1_angle_deg,
         qr.median_angle_deg,
-        qf.median_angle_deg
+        qf.median_angle_deg,
+        qr.radius_ratio_mean,
+        qf.radius_ratio_mean
     );
-    assert!(qf.min_angle_deg >= qr.min_angle_deg.min(25.0), "{name}");
-    assert!(qf.min_angle_deg >= 15.0, "{name}");
-    assert!(
-        (qf.median_angle_deg - qr.median_angle_deg).abs() < 1.0,
-        "{name}"
-    );
+    assert!(qf.min_angle_deg > qr.min_angle_deg, "{name}");
+    assert!(qf.min_angle_deg >= min_angle, "{name}");
+    assert!(qf.radius_ratio_mean > qr.radius_ratio_mean, "{name}");
+    assert!(qf.median_angle_deg >= qr.median_angle_deg, "{name}");
 }
 
 #[test]
@@ -104,6 +109,7 @@ fn genus3_keeps_its_topology_and_gains_angle() {
         "genus 3 δ=0.3",
         genus3(),
         &MarchInput::from_point(0.3, DVec3::new(0.0, 3.0, 0.0)),
+        30.0,
     );
 }
 
@@ -111,7 +117,14 @@ fn genus3_keeps_its_topology_and_gains_angle() {
 fn three_cylinders_keep_their_border() {
     let mut input = MarchInput::from_point(0.5, DVec3::ZERO);
     input.bbox = Some((DVec3::new(-7.0, -7.0, -7.0), DVec3::new(7.0, 7.0, 5.0)));
-    compare("three cylinders δ=0.5", three_cylinders(2287.5587), &input);
+    compare(
+        "three cylinders δ=0.5",
+        three_cylinders(2287.5587),
+        &input,
+        // A triangle on a box face whose free corner cannot move (docs/marcher.md, Known
+        // limits): 27.4°.
+        27.0,
+    );
 }
 
 #[test]
@@ -120,5 +133,6 @@ fn torus_keeps_its_topology_and_gains_angle() {
         "torus δ=0.1",
         torus(1.0, 0.35),
         &MarchInput::from_point(0.1, DVec3::new(1.0, 0.0, 0.5)),
+        30.0,
     );
 }

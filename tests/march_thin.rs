@@ -62,8 +62,8 @@ fn thin_case(shape: &Shape, step: f64, min_angle_deg: f64) {
 #[test]
 fn thin_torus_at_twice_and_four_times_its_tube() {
     let t = torus(1.0, 0.05, DMat3::IDENTITY);
-    thin_case(&t, 0.1, 15.0);
-    thin_case(&t, 0.2, 15.0);
+    thin_case(&t, 0.1, 30.0);
+    thin_case(&t, 0.2, 30.0);
 }
 
 #[test]
@@ -71,19 +71,20 @@ fn genus2_plate_with_a_bridge_thinner_than_the_step() {
     // Holes of radius 0.6 with a 0.12-wide, 0.07-thick bridge between them, at step 0.2.
     let p = plate(2, 2.0, 1.0, 0.6, 0.12, 0.2);
     assert!(p.feature < 0.2, "{}", p.feature);
-    thin_case(&p, 0.2, 15.0);
+    thin_case(&p, 0.2, 30.0);
 }
 
 /// The rim's radius of curvature is 0.0008 = step/250, at the floor of the local step: the
-/// triangles across it reach 13.8°, not yet the 15° of the other cases (issue 10 asks 15°).
+/// triangles across it reached 13.8° before the quality stage (issue 10 asks 15°), 29.5°
+/// with it (the others reach 30°).
 #[test]
 fn flat_ellipsoid_at_five_times_its_thickness() {
-    thin_case(&superquadric(2.0, 2.0, 0.04, 2), 0.2, 13.0);
+    thin_case(&superquadric(2.0, 2.0, 0.04, 2), 0.2, 29.0);
 }
 
 #[test]
 fn dumbbell_with_a_neck_thinner_than_the_step() {
-    thin_case(&dumbbell(0.05, DMat3::IDENTITY), 0.15, 15.0);
+    thin_case(&dumbbell(0.05, DMat3::IDENTITY), 0.15, 30.0);
 }
 
 /// The paper's genus 3 at its step 0.3: the tight rims need the local step (the uniform

@@ -14,7 +14,6 @@ use glam::DVec3;
 use super::angle::{ccw, front_angle, polar, triangle_count};
 use super::guard::{self, Guard};
 use super::hash::SpatialHash;
-use super::improve;
 use super::ring::{FrontId, NodeId, PointId, Rings};
 use super::settings::MarchSettings;
 use super::{MarchError, MarchInput, PolygonRole, Start};
@@ -133,7 +132,6 @@ pub(super) fn run<'s>(
     // front is done.
     m.passive.reverse();
     m.march(actual)?;
-    m.repair();
     Ok(m.into_marched())
 }
 
@@ -1093,50 +1091,6 @@ impl Marcher<'_> {
             }
         }
         true
-    }
-
-    /// The repair pass (`improve.rs`) over the finished triangles: polygon vertices and
-    /// border points stay where they are; moved points are put back on the surface with
-    /// surfacepoint (and must stay inside the box).
-    fn repair(&mut self) {
-        if self.s.improve_angle <= 0.0 {
-            return;
-        }
-        let n = self.pos.len();
-        let fixed: Vec<bool> = (0..n).map(|i| (i as u32) < self.fixed_points).collect();
-        let movable: Vec<bool> = (0..n).map(|i| !fixed[i] && !self.border[i]).collect();
-        let limits = improve::Limits {
-            sin_bad: self.s.improve_angle.min(std::f64::consts::FRAC_PI_3).sin(),
-            rounds: self.s.improve_rounds,
-        };
-        let (surface, step, tol, bbox) = (
-            &mut *self.surface,
-            self.step,
-            self.s.surface_point,
-            self.bbox,
-        );
-        let mut project = |q: DVec3| {
-            let sp = surface_point(surface, q, step, &tol).ok()?;
-            let inside = match bbox {
-                Some((lo, hi)) => sp.point.cmpge(lo).all() && sp.point.cmple(hi).all(),
-                None => true,
-            };
-            inside.then_some((sp.point, sp.normal))
-        };
-        let (found, flips, moves) = improve::Repair {
-            pos: &mut self.pos,
-            normal: &mut self.normal,
-            triangles: &mut self.triangles,
-            movable: &movable,
-            fixed: &fixed,
-        }
-        .run(&limits, &mut project);
-        if self.trace {
-            eprintln!(
-                "march: repair: {found} triangle(s) below {:.1}°, {flips} flip(s), {moves} move(s)",
-                self.s.improve_angle.to_degrees()
-            );
-        }
     }
 
     /// The mesh, without the points merged away by `collapse` (renumbered in order, so

@@ -11,8 +11,10 @@
 //! bit-identical coordinates, first the front's, then each bound's in the order given;
 //! vertices with bit-identical coordinates in several polygons are one mesh vertex.
 //!
-//! After the march a repair pass (`improve`) flips edges of and moves free corners of
-//! triangles below `MarchSettings::improve_angle`, keeping the topology and polygon vertices.
+//! After the march the quality stage (`quality`) flips edges to the restricted Delaunay
+//! condition, smooths free vertices on the surface and inserts off-centres where a triangle
+//! stays below `MarchSettings::quality_angle`, keeping the topology and polygon vertices; the
+//! verification then checks the improved mesh.
 //!
 //! Edges follow a local step h(p) ≤ δ from the surface's curvature and thickness
 //! (`survey::sizing`) unless the input asks for the paper's uniform step. Every finished mesh
@@ -25,8 +27,8 @@
 pub mod angle;
 pub mod guard;
 pub mod hash;
-mod improve;
 mod marcher;
+mod quality;
 pub mod ring;
 pub mod settings;
 pub mod verify;
@@ -241,7 +243,8 @@ pub fn march_verified(
     };
     let mut round = 0;
     loop {
-        let marched = marcher::run(surface, input, settings, &sizing, progress)?;
+        let mut marched = marcher::run(surface, input, settings, &sizing, progress)?;
+        improve(surface, &mut marched, input, settings, tolerance);
         let verdict = verify::verify(surface, &marched, tolerance, step, &settings.surface_point);
         // A chord error above the tolerance may be a wrong mesh (a cap over a neck thinner
         // than the step): refined like one, and with the uniform step (which cannot refine)
@@ -286,5 +289,56 @@ pub fn march_verified(
             size: settings.refine_factor * f.h,
         }));
         round += 1;
+    }
+}
+
+/// The quality stage (`quality.rs`) over a finished triangulation; what it did goes to
+/// `SURFC_TRACE`.
+fn improve(
+    surface: &mut dyn Surface,
+    m: &mut marcher::Triangulation,
+    input: &MarchInput,
+    settings: &MarchSettings,
+    tolerance: f64,
+) {
+    if settings.quality_angle <= 0.0 {
+        return;
+    }
+    let limits = quality::Limits {
+        angle: settings.quality_angle.min(std::f64::consts::FRAC_PI_3),
+        rounds: settings.quality_rounds,
+        insert_fraction: settings.quality_insert,
+        tolerance,
+    };
+    let (step, sp_tol) = (input.step, settings.surface_point);
+    let mut project = |s: &mut dyn Surface, q: DVec3| {
+        let sp = crate::solve::surface_point(s, q, step, &sp_tol).ok()?;
+        // One more Newton step's worth of accuracy is what the marcher's points have.
+        Some((sp.point, sp.normal))
+    };
+    let started = std::time::Instant::now();
+    let report = quality::Stage::new(
+        &mut m.mesh.vertices,
+        &mut m.mesh.normals,
+        &mut m.mesh.triangles,
+        &mut m.border,
+        &mut m.h,
+        m.fixed,
+        input.bbox,
+    )
+    .run(&limits, surface, &mut project);
+    if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
+        eprintln!(
+            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es) in {} round(s), {:.3} s; stopped: {}",
+            report.below_before,
+            limits.angle.to_degrees(),
+            report.below_after,
+            report.flips,
+            report.moves,
+            report.inserted,
+            report.rounds,
+            started.elapsed().as_secs_f64(),
+            report.stop
+        );
     }
 }

@@ -45,12 +45,17 @@ pub struct MarchSettings {
     /// face (a border point), so that no edge between it and the border shrinks to a sliver.
     /// Default 0.3.
     pub box_snap: f64,
-    /// Repair pass after the march: triangles whose smallest angle is below this get edge
-    /// flips and moves of their free corners (`improve.rs`). Default 0.44 rad (≈ 25°).
-    /// 0 turns the pass off.
-    pub improve_angle: f64,
-    /// Rounds of the repair pass (flips, then moves). Default 3.
-    pub improve_rounds: u32,
+    /// The quality stage after the march (`quality.rs`): the smallest angle it aims at;
+    /// triangles below it after flips and smoothing get a new vertex. Default 0.524 rad
+    /// (30.02°, CGAL's bound of DESIGN.md §6 with a margin for rounding). 0 turns the stage
+    /// off.
+    pub quality_angle: f64,
+    /// Rounds of the quality stage (flips, smoothing, insertion; the last round does not
+    /// insert). Default 6.
+    pub quality_rounds: u32,
+    /// The quality stage inserts at most this fraction of the triangle count (plus 64) as
+    /// new vertices. Default 0.05.
+    pub quality_insert: f64,
     /// Largest number of triangles before the marcher gives up without a box
     /// (`MarchInput::max_triangles` overrides it; with a box the default is what the box can
     /// hold, `guard::default_limit`, at most this). Default 10 000 000 (a sphere at step
@@ -92,8 +97,9 @@ impl Default for MarchSettings {
             close_neighbour: 0.5,
             collapse_angle: 0.35,
             box_snap: 0.3,
-            improve_angle: 0.44,
-            improve_rounds: 3,
+            quality_angle: 0.524,
+            quality_rounds: 6,
+            quality_insert: 0.05,
             max_triangles: 10_000_000,
             polygon_edge_min: 0.25,
             polygon_edge_max: 2.5,

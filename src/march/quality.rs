@@ -1,0 +1,1266 @@
+//! The quality stage between the march and the verification (issue 13): restricted-Delaunay
+//! edge flips, angle-based smoothing of free vertices on the surface, and insertion of
+//! off-centres where a triangle stays below the target angle.
+//!
+//! Input: the marcher's triangulation (vertices exactly on the surface, normals ∇f/|∇f|,
+//! which vertices are polygon or border points) and the surface. Output: the same
+//! triangulation improved in place, and counts of what was done.
+//!
+//! Invariants kept: every vertex is a surfacepoint (a moved or new vertex is projected with
+//! surfacepoint and its normal is ∇f/|∇f| there); polygon vertices (given fronts, bounds,
+//! crease polygons, net seams) and border points on the box never move and an edge between two
+//! polygon vertices is never flipped or split, so polygons and box borders stay edges of the
+//! mesh, bit for bit; the topology does not change (a flip replaces two triangles by two, a
+//! move keeps incidences, an insertion splits one triangle into three or an edge's two
+//! triangles into four: χ, boundary loops and components stay); every change keeps each
+//! touched triangle facing the side ∇f points to at its corners. Work is bounded (flip
+//! budgets, `rounds`, `max_inserted`) and done in index order: the output is deterministic.
+//! The verification (`verify.rs`) still checks the result: the stage does not have to be
+//! trusted for correctness, only for quality.
+
+use glam::DVec3;
+
+use crate::surface::Surface;
+
+/// Puts a point near the surface onto it: the surface point and its unit normal, or None.
+pub(super) type Project<'a> = dyn FnMut(&mut dyn Surface, DVec3) -> Option<(DVec3, DVec3)> + 'a;
+
+/// No half-edge across (a boundary edge, or an edge in more than two triangles).
+const NONE: u32 = u32::MAX;
+
+/// A fan around a vertex longer than this is not treated (a pathological star).
+const MAX_STAR: usize = 64;
+
+/// Cosine of the largest angle allowed between the two triangles made by a flip (≈ 37°):
+/// beyond it the quad is folded over a ridge rather than a flat pair.
+const FOLD_COS: f64 = 0.8;
+
+/// A flip must beat the Delaunay condition by this much (radians) so that nearly
+/// cocircular quads do not flip back and forth under rounding.
+const DELAUNAY_MARGIN: f64 = 1e-3;
+
+/// A smoothing move must raise the sum of its fan's radius ratios by this much (unless it
+/// raises the fan's smallest angle): vertices that have converged stop moving, and stop
+/// marking their neighbours for the next round, so the rounds after the first cost little.
+const SMOOTH_GAIN: f64 = 2e-3;
+
+/// Only fans with a triangle of radius ratio below this are smoothed by the sweeps over the
+/// whole mesh (around an insertion every fan is): the marcher's
+/// triangles are near-equilateral almost everywhere, and a fan of good triangles gains
+/// little for the cost of a surfacepoint.
+const SMOOTH_BELOW: f64 = 0.97;
+
+/// What the stage aims at and how much it may do.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Limits {
+    /// The target smallest angle (radians): triangles below it get insertions.
+    pub angle: f64,
+    /// Rounds of (flips, smoothing, insertion).
+    pub rounds: u32,
+    /// Largest number of new vertices, as a fraction of the triangles (plus 64).
+    pub insert_fraction: f64,
+    /// The largest chord error a flip may make (model units).
+    pub tolerance: f64,
+}
+
+/// What the stage did, for `SURFC_TRACE`.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Report {
+    pub below_before: usize,
+    pub below_after: usize,
+    pub flips: usize,
+    pub moves: usize,
+    pub inserted: usize,
+    pub rounds: u32,
+    /// Why the stage stopped.
+    pub stop: &'static str,
+}
+
+/// sin of the smallest angle of triangle (a, b, c): the smallest angle is opposite the
+/// shortest edge, so sin = |(b−a)×(c−a)| / (product of the two longer edges). 0 if
+/// degenerate.
+pub(super) fn min_sin(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (ab, bc, ca) = (
+        a.distance_squared(b),
+        b.distance_squared(c),
+        c.distance_squared(a),
+    );
+    let shortest = ab.min(bc).min(ca);
+    let longer = (ab * bc * ca / shortest).sqrt();
+    let area2 = (b - a).cross(c - a).length();
+    if longer > 0.0 && shortest > 0.0 {
+        area2 / longer
+    } else {
+        0.0
+    }
+}
+
+/// The radius ratio 2·r_in/r_circ = 16·A² / (abc·(a+b+c)): 1 for an equilateral triangle,
+/// 0 for a degenerate one.
+pub(super) fn radius_ratio(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (x, y, z) = (a.distance(b), b.distance(c), c.distance(a));
+    let area2 = (b - a).cross(c - a).length_squared(); // (2A)²
+    let den = x * y * z * (x + y + z);
+    if den > 0.0 { 4.0 * area2 / den } else { 0.0 }
+}
+
+/// The triangulation being improved: triangles with their half-edge twins.
+pub(super) struct Stage<'a> {
+    pub pos: &'a mut Vec<DVec3>,
+    pub normal: &'a mut Vec<DVec3>,
+    pub tri: &'a mut Vec<[u32; 3]>,
+    pub border: &'a mut Vec<bool>,
+    pub h: &'a mut Vec<f64>,
+    /// Vertices below this index are polygon vertices.
+    pub fixed: usize,
+    pub bbox: Option<(DVec3, DVec3)>,
+    /// Per half-edge 3t+k (from tri[t][k] to tri[t][k+1]): the half-edge running the other
+    /// way, or NONE.
+    twin: Vec<u32>,
+    /// Per vertex: one outgoing half-edge (NONE for an unused vertex).
+    out: Vec<u32>,
+    /// Per vertex: touches an edge in more than two triangles (left alone).
+    frozen: Vec<bool>,
+    /// While an insertion is on trial: what it changed, to undo it.
+    log: Option<Vec<Undo>>,
+}
+
+/// One change recorded while an insertion is on trial.
+enum Undo {
+    Tri(u32, [u32; 3]),
+    Twin(u32, u32),
+    Out(u32, u32),
+    Pos(u32, DVec3, DVec3),
+}
+
+fn next(e: u32) -> u32 {
+    if e % 3 == 2 { e - 2 } else { e + 1 }
+}
+
+fn prev(e: u32) -> u32 {
+    if e % 3 == 0 { e + 2 } else { e - 1 }
+}
+
+impl<'a> Stage<'a> {
+    /// Builds the half-edge twins of `tri`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        pos: &'a mut Vec<DVec3>,
+        normal: &'a mut Vec<DVec3>,
+        tri: &'a mut Vec<[u32; 3]>,
+        border: &'a mut Vec<bool>,
+        h: &'a mut Vec<f64>,
+        fixed: usize,
+        bbox: Option<(DVec3, DVec3)>,
+    ) -> Self {
+        let n = pos.len();
+        // Outgoing half-edges per vertex, as a compressed list.
+        let mut start = vec![0u32; n + 1];
+        for t in tri.iter() {
+            for &v in t {
+                start[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut list = vec![0u32; 3 * tri.len()];
+        for (i, t) in tri.iter().enumerate() {
+            for (k, &v) in t.iter().enumerate() {
+                list[fill[v as usize] as usize] = 3 * i as u32 + k as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        let mut twin = vec![NONE; 3 * tri.len()];
+        let mut out = vec![NONE; n];
+        let mut frozen = vec![false; n];
+        let dst = |e: u32| tri[(e / 3) as usize][(next(e) % 3) as usize];
+        for a in 0..n {
+            let outs = &list[start[a] as usize..start[a + 1] as usize];
+            if let Some(&e) = outs.first() {
+                out[a] = e;
+            }
+            for &e in outs {
+                let b = dst(e) as usize;
+                let same = outs.iter().filter(|&&f| dst(f) as usize == b).count();
+                let mut back = list[start[b] as usize..start[b + 1] as usize]
+                    .iter()
+                    .copied()
+                    .filter(|&f| dst(f) as usize == a);
+                let (first, more) = (back.next(), back.next().is_some());
+                if let (1, false, Some(f)) = (same, more, first) {
+                    twin[e as usize] = f;
+                } else if same > 1 || more {
+                    frozen[a] = true;
+                    frozen[b] = true;
+                }
+            }
+        }
+        Stage {
+            pos,
+            normal,
+            tri,
+            border,
+            h,
+            fixed,
+            bbox,
+            twin,
+            out,
+            frozen,
+            log: None,
+        }
+    }
+
+    fn org(&self, e: u32) -> u32 {
+        self.tri[(e / 3) as usize][(e % 3) as usize]
+    }
+
+    fn dst(&self, e: u32) -> u32 {
+        self.org(next(e))
+    }
+
+    fn p(&self, v: u32) -> DVec3 {
+        self.pos[v as usize]
+    }
+
+    fn corners(&self, t: [u32; 3]) -> [DVec3; 3] {
+        t.map(|v| self.p(v))
+    }
+
+    fn q(&self, t: [u32; 3]) -> f64 {
+        let [a, b, c] = self.corners(t);
+        min_sin(a, b, c)
+    }
+
+    /// A vertex that may move: not a polygon vertex, not on the box, not at a
+    /// non-manifold edge.
+    fn free(&self, v: u32) -> bool {
+        (v as usize) >= self.fixed && !self.border[v as usize] && !self.frozen[v as usize]
+    }
+
+    /// An edge that is part of a given polygon (both ends polygon vertices) or at a
+    /// non-manifold place: never flipped or split.
+    fn constrained(&self, a: u32, b: u32) -> bool {
+        ((a as usize) < self.fixed && (b as usize) < self.fixed)
+            || self.frozen[a as usize]
+            || self.frozen[b as usize]
+    }
+
+    /// Triangle `t` with corners `p` faces the side ∇f points to at every corner, and its
+    /// plane is no steeper than 60° to the normal at any corner unless it already was.
+    fn facing(&self, t: [u32; 3], p: [DVec3; 3]) -> bool {
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        let len = n.length();
+        len > 0.0 && t.iter().all(|&v| n.dot(self.normal[v as usize]) > 0.0)
+    }
+
+    /// The outgoing half-edges of v in counter-clockwise order, or None where the fan is
+    /// not closed (a boundary vertex) or too long.
+    fn star(&self, v: u32, buf: &mut Vec<u32>) -> bool {
+        buf.clear();
+        let first = self.out[v as usize];
+        if first == NONE {
+            return false;
+        }
+        let mut e = first;
+        loop {
+            buf.push(e);
+            let back = self.twin[prev(e) as usize];
+            if back == NONE || buf.len() > MAX_STAR {
+                return false;
+            }
+            e = back;
+            if e == first {
+                return true;
+            }
+        }
+    }
+
+    /// Sets triangle t to `v` and records its outgoing half-edges.
+    fn set(&mut self, t: u32, v: [u32; 3]) {
+        if let Some(log) = &mut self.log {
+            log.push(Undo::Tri(t, self.tri[t as usize]));
+            log.extend(v.iter().map(|&p| Undo::Out(p, self.out[p as usize])));
+        }
+        self.tri[t as usize] = v;
+        for (k, &p) in v.iter().enumerate() {
+            self.out[p as usize] = 3 * t + k as u32;
+        }
+    }
+
+    fn link(&mut self, e: u32, f: u32) {
+        if let Some(log) = &mut self.log {
+            log.push(Undo::Twin(e, self.twin[e as usize]));
+            if f != NONE {
+                log.push(Undo::Twin(f, self.twin[f as usize]));
+            }
+        }
+        self.twin[e as usize] = f;
+        if f != NONE {
+            self.twin[f as usize] = e;
+        }
+    }
+
+    /// Puts vertex v at p with normal n (recorded while an insertion is on trial).
+    fn place(&mut self, v: u32, p: DVec3, n: DVec3) {
+        if let Some(log) = &mut self.log {
+            log.push(Undo::Pos(v, self.pos[v as usize], self.normal[v as usize]));
+        }
+        self.pos[v as usize] = p;
+        self.normal[v as usize] = n;
+    }
+
+    /// Inserts a vertex for bad triangle t on trial: kept only if, after flips around it
+    /// and smoothing of it and its ring, every triangle the insertion changed has a larger
+    /// smallest angle than t had. Returns whether it was kept.
+    fn insert_on_trial(
+        &mut self,
+        t: u32,
+        surface: &mut dyn Surface,
+        tolerance: f64,
+        project: &mut Project<'_>,
+    ) -> (bool, usize) {
+        let before = self.q(self.tri[t as usize]);
+        let (points, triangles) = (self.pos.len(), self.tri.len());
+        self.log = Some(Vec::new());
+        let mut flips = 0;
+        let kept = 'trial: {
+            let Some(p) = self.insert(t, surface, project) else {
+                break 'trial false;
+            };
+            let mut star = Vec::new();
+            if self.star(p, &mut star) {
+                let q: Vec<u32> = star.iter().map(|&e| next(e)).collect();
+                flips = self.flip_all(q, 64, surface, tolerance).0;
+            }
+            // Smooth the new vertex, the corners of every triangle changed, and the new
+            // vertex again.
+            let mut ring: Vec<u32> = self
+                .log
+                .iter()
+                .flatten()
+                .filter_map(|u| match u {
+                    Undo::Tri(t, _) => Some(self.tri[*t as usize]),
+                    _ => None,
+                })
+                .flatten()
+                .filter(|&v| v != p)
+                .collect();
+            ring.sort_unstable();
+            ring.dedup();
+            let mut moved = vec![p];
+            for v in std::iter::once(p).chain(ring).chain(std::iter::once(p)) {
+                if self.free(v) && self.star(v, &mut star) {
+                    let mut proj = |q: DVec3| project(surface, q);
+                    if self.smooth(v, &star, f64::INFINITY, &mut proj) {
+                        moved.push(v);
+                    }
+                }
+            }
+            // The triangles changed: those whose slots were set, and the fans of moved
+            // vertices.
+            let mut after = f64::INFINITY;
+            let slots: Vec<u32> = self
+                .log
+                .iter()
+                .flatten()
+                .filter_map(|u| match u {
+                    Undo::Tri(t, _) => Some(*t),
+                    _ => None,
+                })
+                .collect();
+            for s in slots {
+                after = after.min(self.q(self.tri[s as usize]));
+            }
+            for v in moved {
+                if self.star(v, &mut star) {
+                    for &e in &star {
+                        after = after.min(self.q(self.tri[(e / 3) as usize]));
+                    }
+                }
+            }
+            after > before
+        };
+        let log = self.log.take().unwrap_or_default();
+        if !kept {
+            for u in log.into_iter().rev() {
+                match u {
+                    Undo::Tri(t, v) => self.tri[t as usize] = v,
+                    Undo::Twin(e, f) => self.twin[e as usize] = f,
+                    Undo::Out(v, e) => self.out[v as usize] = e,
+                    Undo::Pos(v, p, n) => {
+                        self.pos[v as usize] = p;
+                        self.normal[v as usize] = n;
+                    }
+                }
+            }
+            self.pos.truncate(points);
+            self.normal.truncate(points);
+            self.border.truncate(points);
+            self.h.truncate(points);
+            self.out.truncate(points);
+            self.frozen.truncate(points);
+            self.tri.truncate(triangles);
+            self.twin.truncate(3 * triangles);
+            return (false, 0);
+        }
+        (true, flips)
+    }
+
+    // ---------------------------------------------------------------- flips
+
+    /// Flips the edge of half-edge e if the quad violates the Delaunay condition (the angles
+    /// opposite the edge sum to more than π), the flip does not lower the smaller of the
+    /// pair's smallest angles, both new triangles face ∇f, the pair is not folded, and the
+    /// new edge's midpoint is within `tolerance` of the surface. Returns whether it flipped.
+    fn try_flip(&mut self, e: u32, surface: &mut dyn Surface, tolerance: f64) -> bool {
+        let f = self.twin[e as usize];
+        if f == NONE {
+            return false;
+        }
+        let (a, b) = (self.org(e), self.dst(e));
+        let c = self.org(prev(e));
+        let d = self.org(prev(f));
+        if c == d || self.constrained(a, b) {
+            return false;
+        }
+        let [pa, pb, pc, pd] = [a, b, c, d].map(|v| self.p(v));
+        let angle = |o: DVec3, x: DVec3, y: DVec3| (x - o).angle_between(y - o);
+        if angle(pc, pa, pb) + angle(pd, pa, pb) <= std::f64::consts::PI + DELAUNAY_MARGIN {
+            return false;
+        }
+        let (nt, nu) = ([a, d, c], [d, b, c]);
+        let old = self.q([a, b, c]).min(self.q([b, a, d]));
+        if self.q(nt).min(self.q(nu)) < old {
+            return false;
+        }
+        let (pt, pu) = (self.corners(nt), self.corners(nu));
+        if !self.facing(nt, pt) || !self.facing(nu, pu) {
+            return false;
+        }
+        let n1 = (pt[1] - pt[0]).cross(pt[2] - pt[0]).normalize_or_zero();
+        let n2 = (pu[1] - pu[0]).cross(pu[2] - pu[0]).normalize_or_zero();
+        if n1.dot(n2) < FOLD_COS {
+            return false;
+        }
+        // c–d must not already be an edge (the flip would make it non-manifold).
+        if self.edge_exists(c, d) {
+            return false;
+        }
+        let vg = surface.value_gradient(0.5 * (pc + pd));
+        let g = vg.gradient.length();
+        if !(g > 0.0 && vg.value.abs() / g <= tolerance) {
+            return false;
+        }
+        let [o_ad, o_db, o_bc, o_ca] = self.outer(e, f);
+        let (t, u) = (e / 3, f / 3);
+        self.set(t, nt);
+        self.set(u, nu);
+        // t = [a, d, c]: a→d, d→c, c→a; u = [d, b, c]: d→b, b→c, c→d.
+        self.link(3 * t, o_ad);
+        self.link(3 * t + 1, 3 * u + 2);
+        self.link(3 * t + 2, o_ca);
+        self.link(3 * u, o_db);
+        self.link(3 * u + 1, o_bc);
+        true
+    }
+
+    /// The twins of the four outer edges of the quad over half-edge e = a→b (in t, with c)
+    /// and its twin f = b→a (in u, with d): [a→d, d→b, b→c, c→a].
+    fn outer(&self, e: u32, f: u32) -> [u32; 4] {
+        [next(f), prev(f), next(e), prev(e)].map(|x| self.twin[x as usize])
+    }
+
+    /// Whether a and b are joined by an edge (searched around a, both ways from out[a]).
+    fn edge_exists(&self, a: u32, b: u32) -> bool {
+        let first = self.out[a as usize];
+        if first == NONE {
+            return false;
+        }
+        // Counter-clockwise until the fan closes or opens.
+        let mut e = first;
+        for _ in 0..=MAX_STAR {
+            if self.dst(e) == b || self.org(prev(e)) == b {
+                return true;
+            }
+            let back = self.twin[prev(e) as usize];
+            if back == NONE || back == first {
+                break;
+            }
+            e = back;
+        }
+        // Clockwise from the first (an open fan).
+        let mut e = first;
+        for _ in 0..=MAX_STAR {
+            let t = self.twin[e as usize];
+            if t == NONE {
+                break;
+            }
+            e = next(t);
+            if e == first {
+                break;
+            }
+            if self.dst(e) == b || self.org(prev(e)) == b {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Flips until no edge of `queue` (and of what the flips touch) violates the Delaunay
+    /// condition, at most `budget` flips.
+    fn flip_all(
+        &mut self,
+        mut queue: Vec<u32>,
+        budget: usize,
+        surface: &mut dyn Surface,
+        tolerance: f64,
+    ) -> (usize, bool) {
+        let mut flips = 0;
+        queue.reverse();
+        while let Some(e) = queue.pop() {
+            if flips >= budget {
+                return (flips, false);
+            }
+            let (t, u) = (e / 3, self.twin[e as usize] / 3);
+            if self.try_flip(e, surface, tolerance) {
+                flips += 1;
+                // The four outer edges of the quad.
+                for x in [3 * t, 3 * t + 2, 3 * u, 3 * u + 1] {
+                    queue.push(x);
+                }
+            }
+        }
+        (flips, true)
+    }
+
+    // ------------------------------------------------------------ smoothing
+
+    /// The worst smallest-angle sine, the worst radius ratio and the sum of radius ratios of
+    /// the fan of v (half-edges `star`) with v at `p`.
+    fn star_quality(&self, star: &[u32], p: DVec3) -> (f64, f64, f64) {
+        let (mut worst, mut worst_rr, mut sum) = (f64::INFINITY, f64::INFINITY, 0.0);
+        for &e in star {
+            let (b, c) = (self.p(self.dst(e)), self.p(self.org(prev(e))));
+            worst = worst.min(min_sin(p, b, c));
+            let rr = radius_ratio(p, b, c);
+            worst_rr = worst_rr.min(rr);
+            sum += rr;
+        }
+        (worst, worst_rr, sum)
+    }
+
+    /// Zhou–Shimada's angle-based position for v, in the tangent plane at v: each ring
+    /// neighbour proposes the point at v's distance on the bisector of its own angle in the
+    /// ring; the mean of the proposals.
+    fn angle_based(&self, v: u32, star: &[u32]) -> DVec3 {
+        let (p, n) = (self.p(v), self.normal[v as usize]);
+        let flat = |q: DVec3| q - (q - p).dot(n) * n;
+        let ring: Vec<DVec3> = star.iter().map(|&e| flat(self.p(self.dst(e)))).collect();
+        let k = ring.len();
+        let mut sum = DVec3::ZERO;
+        for j in 0..k {
+            let pj = ring[j];
+            let (before, after) = (ring[(j + k - 1) % k], ring[(j + 1) % k]);
+            let mut bis = (before - pj).normalize_or_zero() + (after - pj).normalize_or_zero();
+            if bis.dot(p - pj) < 0.0 {
+                bis = -bis;
+            }
+            let bis = bis.normalize_or_zero();
+            if bis == DVec3::ZERO {
+                sum += p;
+            } else {
+                sum += pj + p.distance(pj) * bis;
+            }
+        }
+        sum / k as f64
+    }
+
+    /// Moves free vertex v to a better place on the surface if one of the candidates
+    /// (angle-based, then the mean of the ring, then halfway to either) raises the sum of
+    /// the fan's radius ratios without lowering its smallest angle, keeps every triangle
+    /// facing ∇f, stays in the box, and lengthens no edge of the fan beyond its longest.
+    fn smooth(
+        &mut self,
+        v: u32,
+        star: &[u32],
+        below: f64,
+        project: &mut dyn FnMut(DVec3) -> Option<(DVec3, DVec3)>,
+    ) -> bool {
+        let p = self.p(v);
+        let (old_worst, old_worst_rr, old_sum) = self.star_quality(star, p);
+        if old_worst_rr >= below {
+            return false;
+        }
+        let longest = star
+            .iter()
+            .map(|&e| p.distance_squared(self.p(self.dst(e))))
+            .fold(0.0f64, f64::max);
+        let n = self.normal[v as usize];
+        let ring_mean = star
+            .iter()
+            .map(|&e| {
+                let q = self.p(self.dst(e));
+                q - (q - p).dot(n) * n
+            })
+            .sum::<DVec3>()
+            / star.len() as f64;
+        let ab = self.angle_based(v, star);
+        // The apex of the equilateral triangle over the far edge of the fan's worst
+        // triangle (in the tangent plane): where the worst triangle wants v.
+        let ideal = star
+            .iter()
+            .map(|&e| (self.p(self.dst(e)), self.p(self.org(prev(e)))))
+            .min_by(|x, y| min_sin(p, x.0, x.1).total_cmp(&min_sin(p, y.0, y.1)))
+            .map_or(p, |(b, c)| {
+                let d = c - b;
+                let left = n.cross(d).normalize_or_zero();
+                let m = 0.5 * (b + c);
+                let m = m - (m - p).dot(n) * n;
+                m + left * (d.length() * 3f64.sqrt() / 2.0)
+            });
+        // Better: the worst angle rises, or stays and the radius ratios rise.
+        let better = |s: &Self, q: DVec3| {
+            let (w, _, sum) = s.star_quality(star, q);
+            w > old_worst * (1.0 + 1e-6) || (w >= old_worst && sum > old_sum + SMOOTH_GAIN)
+        };
+        let Some(target) = [
+            ab,
+            ring_mean,
+            0.5 * (p + ab),
+            0.5 * (p + ring_mean),
+            0.5 * (p + ideal),
+            0.75 * p + 0.25 * ideal,
+            0.875 * p + 0.125 * ideal,
+        ]
+        .into_iter()
+        .find(|&q| better(self, q)) else {
+            return false;
+        };
+        let Some((sp, sn)) = project(target) else {
+            return false;
+        };
+        let (old_p, old_n) = (p, n);
+        self.pos[v as usize] = sp;
+        self.normal[v as usize] = sn;
+        let ok = better(self, sp)
+            && star.iter().all(|&e| {
+                let t = self.tri[(e / 3) as usize];
+                self.facing(t, self.corners(t))
+                    && sp.distance_squared(self.p(self.dst(e))) <= longest
+            });
+        self.pos[v as usize] = old_p;
+        self.normal[v as usize] = old_n;
+        if ok {
+            self.place(v, sp, sn);
+        }
+        ok
+    }
+
+    // ------------------------------------------------------------ insertion
+
+    /// Inserts a vertex for bad triangle t: the off-centre of its shortest edge (the apex of
+    /// the equilateral triangle over it, or the circumcentre where that is nearer), placed
+    /// in t or split onto the edge it lies across, projected onto the surface. Returns the
+    /// new vertex.
+    fn insert(
+        &mut self,
+        t: u32,
+        surface: &mut dyn Surface,
+        project: &mut Project<'_>,
+    ) -> Option<u32> {
+        let tv = self.tri[t as usize];
+        if tv.iter().any(|&v| self.frozen[v as usize]) {
+            return None;
+        }
+        let [a, b, c] = self.corners(tv);
+        let lens = [a.distance(b), b.distance(c), c.distance(a)];
+        // A cap on the box: its longest edge runs along a face; split it on the face.
+        let long = (0..3)
+            .max_by(|&i, &j| lens[i].total_cmp(&lens[j]))
+            .unwrap_or(0);
+        let e = 3 * t + long as u32;
+        if self.twin[e as usize] == NONE {
+            if let Some(p) = self.split_on_face(e, surface) {
+                return Some(p);
+            }
+        }
+        let mut proj = |q: DVec3| project(surface, q);
+        let project = &mut proj;
+        // k: the shortest edge tv[k]→tv[k+1]; r the corner opposite.
+        let k = (0..3)
+            .min_by(|&i, &j| lens[i].total_cmp(&lens[j]))
+            .unwrap_or(0);
+        let (p, q, r) = (
+            self.p(tv[k]),
+            self.p(tv[(k + 1) % 3]),
+            self.p(tv[(k + 2) % 3]),
+        );
+        let m = 0.5 * (p + q);
+        let normal = (q - p).cross(r - p);
+        let dir = normal.cross(q - p).normalize_or_zero(); // in the plane, towards r
+        if dir == DVec3::ZERO {
+            return None;
+        }
+        let circ = circumcentre(p, q, r)?;
+        let off = lens[k] * 3f64.sqrt() / 2.0;
+        let o = m + dir * off.min((circ - m).dot(dir).max(0.0));
+        // Barycentric coordinates of o in t's plane.
+        let bary = barycentric(a, b, c, o)?;
+        let min_i = (0..3)
+            .min_by(|&i, &j| bary[i].total_cmp(&bary[j]))
+            .unwrap_or(0);
+        if bary[min_i] > 0.05 {
+            self.split_triangle(t, o, project)
+        } else {
+            // Across (or at) the edge opposite the corner with the smallest coordinate:
+            // split that edge at the point nearest o.
+            let e = 3 * t + ((min_i + 1) % 3) as u32;
+            let (x, y) = (self.p(self.org(e)), self.p(self.dst(e)));
+            let s = ((o - x).dot(y - x) / (y - x).length_squared()).clamp(0.25, 0.75);
+            self.split_edge(e, x + s * (y - x), project)
+        }
+    }
+
+    /// Splits the boundary edge of half-edge e, between two border points on one face of
+    /// the box, at the point of the surface on that face nearest its midpoint; the new
+    /// vertex is a border point.
+    fn split_on_face(&mut self, e: u32, surface: &mut dyn Surface) -> Option<u32> {
+        let (a, b, c) = (self.org(e), self.dst(e), self.org(prev(e)));
+        let (lo, hi) = self.bbox?;
+        let (pa, pb) = (self.p(a), self.p(b));
+        if !(self.border[a as usize] && self.border[b as usize]) || self.constrained(a, b) {
+            return None;
+        }
+        let (axis, value) = (0..3).find_map(|k| {
+            [lo[k], hi[k]]
+                .into_iter()
+                .find(|&v| pa[k] == v && pb[k] == v)
+                .map(|v| (k, v))
+        })?;
+        let scale = self.h_of(&[a, b]);
+        let (sp, sn) = face_point(surface, 0.5 * (pa + pb), axis, value, scale)?;
+        if !self.in_box(sp) {
+            return None;
+        }
+        let pc = self.p(c);
+        for (x, y) in [(pa, sp), (sp, pb)] {
+            let n = (y - x).cross(pc - x);
+            if !(n.dot(sn) > 0.0 && n.dot(self.normal[c as usize]) > 0.0) {
+                return None;
+            }
+        }
+        let h = self.h_of(&[a, b, c]);
+        let p = self.new_vertex(sp, sn, h);
+        self.border[p as usize] = true;
+        let (o_bc, o_ca) = (self.twin[next(e) as usize], self.twin[prev(e) as usize]);
+        let t = e / 3;
+        let n1 = self.tri.len() as u32;
+        self.tri.push([0; 3]);
+        self.twin.extend([NONE; 3]);
+        // t = [a, p, c]: a→p (open), p→c, c→a; n1 = [p, b, c]: p→b (open), b→c, c→p.
+        self.set(t, [a, p, c]);
+        self.set(n1, [p, b, c]);
+        self.link(3 * t, NONE);
+        self.link(3 * t + 1, 3 * n1 + 2);
+        self.link(3 * t + 2, o_ca);
+        self.link(3 * n1, NONE);
+        self.link(3 * n1 + 1, o_bc);
+        Some(p)
+    }
+
+    fn new_vertex(&mut self, p: DVec3, n: DVec3, h: f64) -> u32 {
+        self.pos.push(p);
+        self.normal.push(n);
+        self.border.push(false);
+        self.h.push(h);
+        self.out.push(NONE);
+        self.frozen.push(false);
+        (self.pos.len() - 1) as u32
+    }
+
+    fn h_of(&self, vs: &[u32]) -> f64 {
+        vs.iter().map(|&v| self.h[v as usize]).fold(0.0, f64::max)
+    }
+
+    fn in_box(&self, p: DVec3) -> bool {
+        self.bbox
+            .is_none_or(|(lo, hi)| p.cmpge(lo).all() && p.cmple(hi).all())
+    }
+
+    fn split_triangle(
+        &mut self,
+        t: u32,
+        o: DVec3,
+        project: &mut dyn FnMut(DVec3) -> Option<(DVec3, DVec3)>,
+    ) -> Option<u32> {
+        let [a, b, c] = self.tri[t as usize];
+        let (sp, sn) = project(o)?;
+        if !self.in_box(sp) {
+            return None;
+        }
+        let news = [[a, b], [b, c], [c, a]];
+        for [x, y] in news {
+            let pts = [self.p(x), self.p(y), sp];
+            let n = (pts[1] - pts[0]).cross(pts[2] - pts[0]);
+            if !([x, y].iter().all(|&v| n.dot(self.normal[v as usize]) > 0.0) && n.dot(sn) > 0.0) {
+                return None;
+            }
+        }
+        let h = self.h_of(&[a, b, c]);
+        let p = self.new_vertex(sp, sn, h);
+        let (o_ab, o_bc, o_ca) = (
+            self.twin[3 * t as usize],
+            self.twin[3 * t as usize + 1],
+            self.twin[3 * t as usize + 2],
+        );
+        let n1 = self.tri.len() as u32;
+        let n2 = n1 + 1;
+        self.tri.push([0; 3]);
+        self.tri.push([0; 3]);
+        self.twin.extend([NONE; 6]);
+        self.set(t, [a, b, p]);
+        self.set(n1, [b, c, p]);
+        self.set(n2, [c, a, p]);
+        self.link(3 * t, o_ab);
+        self.link(3 * t + 1, 3 * n1 + 2);
+        self.link(3 * t + 2, 3 * n2 + 1);
+        self.link(3 * n1, o_bc);
+        self.link(3 * n1 + 1, 3 * n2 + 2);
+        self.link(3 * n2, o_ca);
+        Some(p)
+    }
+
+    fn split_edge(
+        &mut self,
+        e: u32,
+        o: DVec3,
+        project: &mut dyn FnMut(DVec3) -> Option<(DVec3, DVec3)>,
+    ) -> Option<u32> {
+        let f = self.twin[e as usize];
+        let (a, b) = (self.org(e), self.dst(e));
+        if f == NONE || self.constrained(a, b) {
+            return None;
+        }
+        let (c, d) = (self.org(prev(e)), self.org(prev(f)));
+        let (sp, sn) = project(o)?;
+        if !self.in_box(sp) {
+            return None;
+        }
+        // t = [a, p, c], n1 = [p, b, c], u = [b, p, d], n2 = [p, a, d].
+        let check = |x: u32, y: u32, first: bool| {
+            // Triangle (x, p, y) or (p, x, y): corners in order.
+            let (p0, p1, p2) = if first {
+                (self.p(x), sp, self.p(y))
+            } else {
+                (sp, self.p(x), self.p(y))
+            };
+            let n = (p1 - p0).cross(p2 - p0);
+            n.dot(self.normal[x as usize]) > 0.0
+                && n.dot(self.normal[y as usize]) > 0.0
+                && n.dot(sn) > 0.0
+        };
+        if !(check(a, c, true) && check(b, c, false) && check(b, d, true) && check(a, d, false)) {
+            return None;
+        }
+        let h = self.h_of(&[a, b, c, d]);
+        let p = self.new_vertex(sp, sn, h);
+        let [o_ad, o_db, o_bc, o_ca] = self.outer(e, f);
+        let (t, u) = (e / 3, f / 3);
+        let n1 = self.tri.len() as u32;
+        let n2 = n1 + 1;
+        self.tri.push([0; 3]);
+        self.tri.push([0; 3]);
+        self.twin.extend([NONE; 6]);
+        self.set(t, [a, p, c]);
+        self.set(n1, [p, b, c]);
+        self.set(u, [b, p, d]);
+        self.set(n2, [p, a, d]);
+        // t: a→p, p→c, c→a; n1: p→b, b→c, c→p; u: b→p, p→d, d→b; n2: p→a, a→d, d→p.
+        self.link(3 * t, 3 * n2);
+        self.link(3 * t + 1, 3 * n1 + 2);
+        self.link(3 * t + 2, o_ca);
+        self.link(3 * n1, 3 * u);
+        self.link(3 * n1 + 1, o_bc);
+        self.link(3 * u + 1, 3 * n2 + 2);
+        self.link(3 * u + 2, o_db);
+        self.link(3 * n2 + 1, o_ad);
+        Some(p)
+    }
+
+    // ------------------------------------------------------------ driver
+
+    /// Runs the stage. `project` puts a point near the surface onto it (point and unit
+    /// normal) or gives None.
+    pub fn run(
+        &mut self,
+        limits: &Limits,
+        surface: &mut dyn Surface,
+        project: &mut Project<'_>,
+    ) -> Report {
+        let sin_bad = limits.angle.sin();
+        let bad_count = |s: &Self| s.tri.iter().filter(|&&t| s.q(t) < sin_bad).count();
+        let mut report = Report {
+            below_before: bad_count(self),
+            stop: "no triangle below the target",
+            ..Report::default()
+        };
+        let max_inserted = (limits.insert_fraction * self.tri.len() as f64) as usize + 64;
+        let mut dirty = vec![true; self.pos.len()];
+        let mut star = Vec::new();
+        for round in 0..limits.rounds {
+            report.rounds = round + 1;
+            // 1. Flips over every edge (the first round) or the edges around what changed.
+            let queue: Vec<u32> = (0..3 * self.tri.len() as u32)
+                .filter(|&e| {
+                    let f = self.twin[e as usize];
+                    f != NONE
+                        && e < f
+                        && (dirty[self.org(e) as usize] || dirty[self.dst(e) as usize])
+                })
+                .collect();
+            let budget = 2 * self.tri.len() + 64;
+            let (flips, _) = self.flip_all(queue, budget, surface, limits.tolerance);
+            report.flips += flips;
+            // 2. Smoothing of free vertices whose fan changed, in index order.
+            let mut moved = vec![false; self.pos.len()];
+            let mut moves = 0;
+            for v in 0..self.pos.len() as u32 {
+                if !dirty[v as usize] || !self.free(v) || !self.star(v, &mut star) {
+                    continue;
+                }
+                let mut proj = |q: DVec3| project(surface, q);
+                if self.smooth(v, &star, SMOOTH_BELOW, &mut proj) {
+                    moves += 1;
+                    moved[v as usize] = true;
+                }
+            }
+            report.moves += moves;
+            // 3. Insertion where a triangle is still below the target (not in the last
+            // round, which flips and smooths around the last insertions).
+            if report.inserted < max_inserted && round + 1 < limits.rounds {
+                let bad: Vec<u32> = (0..self.tri.len() as u32)
+                    .filter(|&t| self.q(self.tri[t as usize]) < sin_bad)
+                    .collect();
+                for t in bad {
+                    if report.inserted >= max_inserted {
+                        break;
+                    }
+                    if self.q(self.tri[t as usize]) >= sin_bad {
+                        continue;
+                    }
+                    let (kept, flips) = self.insert_on_trial(t, surface, limits.tolerance, project);
+                    if kept {
+                        report.inserted += 1;
+                        report.flips += flips;
+                    }
+                }
+            }
+            // What changed (moved or new vertices, triangles still bad) marks the
+            // corners of the triangles around it for the next round.
+            let mut next_dirty = vec![false; self.pos.len()];
+            let mut bad_left = false;
+            for t in self.tri.iter() {
+                let bad = self.q(*t) < sin_bad;
+                bad_left |= bad;
+                if bad || t.iter().any(|&v| moved.get(v as usize).is_none_or(|&m| m)) {
+                    for &v in t {
+                        next_dirty[v as usize] = true;
+                    }
+                }
+            }
+            dirty = next_dirty;
+            if report.inserted >= max_inserted {
+                report.stop = "insertion budget exhausted";
+            } else if bad_left {
+                report.stop = "rounds exhausted";
+            } else {
+                report.stop = "no triangle below the target";
+            }
+            if moves == 0 && flips == 0 && !bad_left {
+                break;
+            }
+        }
+        report.below_after = bad_count(self);
+        report
+    }
+}
+
+/// The point of the surface in the plane x[axis] = value nearest q (Newton on f with the
+/// gradient's component along the axis removed), its unit normal; None if it does not
+/// converge to within 1e-13·scale.
+fn face_point(
+    surface: &mut dyn Surface,
+    q: DVec3,
+    axis: usize,
+    value: f64,
+    scale: f64,
+) -> Option<(DVec3, DVec3)> {
+    let mut u = q;
+    u[axis] = value;
+    for _ in 0..32 {
+        let vg = surface.value_gradient(u);
+        let mut g = vg.gradient;
+        g[axis] = 0.0;
+        let gg = g.length_squared();
+        if !(vg.value.is_finite() && gg > 0.0 && gg.is_finite()) {
+            return None;
+        }
+        let step = g * (vg.value / gg);
+        if step.length() > scale {
+            // The surface runs nearly parallel to the face here.
+            return None;
+        }
+        u -= step;
+        u[axis] = value;
+        if step.length() <= (1e-12 * scale).max(8.0 * f64::EPSILON * u.abs().max_element()) {
+            let n = surface.value_gradient(u).gradient.normalize_or_zero();
+            return (n != DVec3::ZERO).then_some((u, n));
+        }
+    }
+    None
+}
+
+/// The circumcentre of triangle (a, b, c), or None if degenerate.
+fn circumcentre(a: DVec3, b: DVec3, c: DVec3) -> Option<DVec3> {
+    let (u, v) = (b - a, c - a);
+    let n = u.cross(v);
+    let d = 2.0 * n.length_squared();
+    if d <= 0.0 {
+        return None;
+    }
+    Some(a + (u.length_squared() * v.cross(n) + v.length_squared() * n.cross(u)) / d)
+}
+
+/// Barycentric coordinates of o (projected into the plane of a, b, c).
+fn barycentric(a: DVec3, b: DVec3, c: DVec3, o: DVec3) -> Option<[f64; 3]> {
+    let n = (b - a).cross(c - a);
+    let area = n.length_squared();
+    if area <= 0.0 {
+        return None;
+    }
+    let wa = (c - b).cross(o - b).dot(n) / area;
+    let wb = (a - c).cross(o - c).dot(n) / area;
+    Some([wa, wb, 1.0 - wa - wb])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::surface::ValueGrad;
+
+    /// The plane z = 0 with ∇f = +z.
+    struct Plane;
+
+    impl Surface for Plane {
+        fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+            ValueGrad {
+                value: p.z,
+                gradient: DVec3::Z,
+            }
+        }
+    }
+
+    fn onto_plane(_: &mut dyn Surface, q: DVec3) -> Option<(DVec3, DVec3)> {
+        Some((DVec3::new(q.x, q.y, 0.0), DVec3::Z))
+    }
+
+    struct Case {
+        pos: Vec<DVec3>,
+        normal: Vec<DVec3>,
+        tri: Vec<[u32; 3]>,
+        border: Vec<bool>,
+        h: Vec<f64>,
+    }
+
+    impl Case {
+        fn new(pos: Vec<DVec3>, tri: Vec<[u32; 3]>) -> Self {
+            let n = pos.len();
+            Case {
+                pos,
+                normal: vec![DVec3::Z; n],
+                tri,
+                border: vec![false; n],
+                h: vec![1.0; n],
+            }
+        }
+
+        /// Runs the stage with the first `fixed` vertices as polygon vertices.
+        fn run(&mut self, fixed: usize) -> Report {
+            let limits = Limits {
+                angle: 0.524,
+                rounds: 6,
+                insert_fraction: 0.05,
+                tolerance: 0.1,
+            };
+            Stage::new(
+                &mut self.pos,
+                &mut self.normal,
+                &mut self.tri,
+                &mut self.border,
+                &mut self.h,
+                fixed,
+                None,
+            )
+            .run(&limits, &mut Plane, &mut onto_plane)
+        }
+
+        fn worst_deg(&self) -> f64 {
+            self.tri
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|v| self.pos[v as usize]);
+                    min_sin(a, b, c).asin().to_degrees()
+                })
+                .fold(f64::INFINITY, f64::min)
+        }
+
+        /// χ = V − E + F over the vertices used.
+        fn euler(&self) -> i64 {
+            let mut edges: Vec<(u32, u32)> = self
+                .tri
+                .iter()
+                .flat_map(|t| {
+                    (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])))
+                })
+                .collect();
+            edges.sort_unstable();
+            edges.dedup();
+            let mut used: Vec<u32> = self.tri.iter().flatten().copied().collect();
+            used.sort_unstable();
+            used.dedup();
+            used.len() as i64 - edges.len() as i64 + self.tri.len() as i64
+        }
+
+        /// Every triangle counter-clockwise seen from +z (faces ∇f).
+        fn all_up(&self) -> bool {
+            self.tri.iter().all(|t| {
+                let [a, b, c] = t.map(|v| self.pos[v as usize]);
+                (b - a).cross(c - a).z > 0.0
+            })
+        }
+    }
+
+    /// Two triangles over the quad a(0,0) b(2,0) c(1,0.2) d(1,−1.5): the shared edge a–b
+    /// makes (a, b, c) an 11° sliver; the quad is not Delaunay over a–b.
+    fn sliver_pair() -> Case {
+        Case::new(
+            vec![
+                DVec3::new(0.0, 0.0, 0.0),
+                DVec3::new(2.0, 0.0, 0.0),
+                DVec3::new(1.0, 0.2, 0.0),
+                DVec3::new(1.0, -1.5, 0.0),
+            ],
+            vec![[0, 1, 2], [1, 0, 3]],
+        )
+    }
+
+    #[test]
+    fn radius_ratio_is_one_for_an_equilateral_triangle() {
+        let h = 3f64.sqrt() / 2.0;
+        let r = radius_ratio(DVec3::ZERO, DVec3::X, DVec3::new(0.5, h, 0.0));
+        assert!((r - 1.0).abs() < 1e-12, "{r}");
+        // Right isosceles: r_in = 1 − 1/√2, r_circ = 1/√2 (legs 1): 2·r_in/r_circ = 2(√2 − 1).
+        let r = radius_ratio(DVec3::ZERO, DVec3::X, DVec3::Y);
+        assert!((r - 2.0 * (2f64.sqrt() - 1.0)).abs() < 1e-12, "{r}");
+        assert_eq!(radius_ratio(DVec3::ZERO, DVec3::X, 2.0 * DVec3::X), 0.0);
+    }
+
+    #[test]
+    fn a_non_delaunay_pair_is_flipped() {
+        let mut c = sliver_pair();
+        let before = c.worst_deg();
+        let report = c.run(0);
+        assert!(report.flips >= 1, "{report:?}");
+        assert!(c.worst_deg() > before);
+        assert!(c.all_up());
+        // Corner 0 and 1 lost their shared edge (c–d is the diagonal now).
+        assert!(
+            c.tri.iter().all(|t| !(t.contains(&0) && t.contains(&1))),
+            "{:?}",
+            c.tri
+        );
+    }
+
+    #[test]
+    fn an_edge_between_polygon_vertices_is_never_flipped_or_split() {
+        let mut c = sliver_pair();
+        c.run(4);
+        assert!(c.tri.iter().any(|t| t.contains(&0) && t.contains(&1)));
+        assert_eq!(c.pos.len(), 4, "no vertex on a polygon edge");
+    }
+
+    /// A fan of 6 around a free vertex pushed close to one rim edge.
+    fn fan() -> Case {
+        let mut pos = vec![DVec3::new(0.7, 0.05, 0.0)];
+        for k in 0..6 {
+            let a = std::f64::consts::FRAC_PI_3 * k as f64;
+            pos.push(DVec3::new(a.cos(), a.sin(), 0.0));
+        }
+        let tri = (0..6u32).map(|k| [0, 1 + k, 1 + (k + 1) % 6]).collect();
+        Case::new(pos, tri)
+    }
+
+    #[test]
+    fn a_free_vertex_moves_onto_the_surface_and_polygon_vertices_stay() {
+        let mut c = fan();
+        c.pos.rotate_left(1);
+        // Vertex 6 is the centre now; the rim (0..6) is the polygon.
+        for t in c.tri.iter_mut() {
+            *t = t.map(|v| (v + 6) % 7);
+        }
+        let rim: Vec<DVec3> = c.pos[..6].to_vec();
+        let before = c.worst_deg();
+        c.run(6);
+        assert_eq!(&c.pos[..6], &rim[..], "polygon vertices keep their bits");
+        assert!(c.worst_deg() > before.max(45.0), "{}", c.worst_deg());
+        assert!(c.pos.iter().all(|p| p.z == 0.0));
+        assert!(c.all_up());
+        assert_eq!(c.euler(), 1);
+    }
+
+    #[test]
+    fn a_strip_of_needles_is_lifted_and_the_topology_stays() {
+        // A strip of 17° needles between two rows of free vertices (flips, moves and
+        // insertions may all take part).
+        let mut pos = Vec::new();
+        for i in 0..6 {
+            pos.push(DVec3::new(0.3 * i as f64, 0.0, 0.0));
+        }
+        for i in 0..6 {
+            pos.push(DVec3::new(0.3 * i as f64 + 0.15, 1.0, 0.0));
+        }
+        let mut tri = Vec::new();
+        for i in 0..5u32 {
+            tri.push([i, i + 1, i + 6]);
+            tri.push([i + 1, i + 7, i + 6]);
+        }
+        let mut c = Case::new(pos, tri);
+        let (chi, before) = (c.euler(), c.worst_deg());
+        let report = c.run(0);
+        assert!(
+            c.worst_deg() > before + 5.0,
+            "{} vs {before}: {report:?}",
+            c.worst_deg()
+        );
+        assert_eq!(c.euler(), chi);
+        assert!(c.all_up());
+        assert!(c.pos.iter().all(|p| p.z == 0.0));
+    }
+
+    #[test]
+    fn the_same_input_gives_the_same_bits() {
+        let (mut a, mut b) = (fan(), fan());
+        a.run(0);
+        b.run(0);
+        let bits = |c: &Case| -> Vec<u64> {
+            c.pos
+                .iter()
+                .flat_map(|p| p.to_array().map(f64::to_bits))
+                .collect()
+        };
+        assert_eq!(bits(&a), bits(&b));
+        assert_eq!(a.tri, b.tri);
+    }
+}
