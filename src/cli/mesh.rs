@@ -501,6 +501,12 @@ fn mesh_block(
                 SearchError::March { source, .. } => {
                     messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(source))
                 }
+                SearchError::CellBudget { .. } => messages::mesh_failed(
+                    &def.name,
+                    def.span,
+                    &e.to_string(),
+                    Some("raise `max_triangles` if the surface is this large at this step; else a smaller `box` around the part to mesh"),
+                ),
                 _ => messages::mesh_failed(&def.name, def.span, &e.to_string(), None),
             })?;
             warnings.extend(found.warnings.iter().map(ToString::to_string));
