@@ -14,7 +14,7 @@ use common::csg::{Degenerate, GeneralPosition, Tree};
 use common::rng::Rng;
 use common::voxel::{SolidCount, solid_count, two_readings};
 use glam::DVec3;
-use surfc::cli::mesh::{Meshed, mesh_source};
+use surfc::cli::mesh::{CreaseCounts, Meshed, mesh_source};
 use surfc::mesh::check::{Expect, check};
 
 fn mesh_one(source: &str) -> Meshed {
@@ -113,6 +113,15 @@ fn assert_bite(formula: &str) {
         }
     }
     assert!(worst <= 0.1 * step, "chord error {worst}");
+    // `--json`'s counts: one closed crease, no corner, its vertices those found on both spheres.
+    assert_eq!(
+        m.creases,
+        Some(CreaseCounts {
+            creases: 1,
+            corners: 0,
+            crease_vertices: angles.len()
+        })
+    );
     eprintln!(
         "bite: {} triangles, {} crease vertices, smallest angle {:.1}°, chord error {worst:.2e}",
         m.mesh.triangles.len(),
@@ -203,7 +212,8 @@ fn cube_of_planes() {
     assert_cube(&m, step);
 }
 
-/// M2 written with the `box` primitive.
+/// M2 written with the `box` primitive; `--json`'s crease counts: 12 edges, 8 corners, and as
+/// crease vertices exactly the mesh's vertices with two coordinates at ±1.
 #[test]
 fn cube_primitive() {
     let step = 0.15;
@@ -212,6 +222,20 @@ fn cube_primitive() {
          mesh cube = cube {{ step: {step}; box: (-1.5, -1.5, -1.5) .. (1.5, 1.5, 1.5); }}\n"
     ));
     assert_cube(&m, step);
+    let on_edges = m
+        .mesh
+        .vertices
+        .iter()
+        .filter(|p| p.to_array().iter().filter(|c| c.abs() == 1.0).count() >= 2)
+        .count();
+    assert_eq!(
+        m.creases,
+        Some(CreaseCounts {
+            creases: 12,
+            corners: 8,
+            crease_vertices: on_edges
+        })
+    );
 }
 
 /// M3: a plate with two cylindrical holes: χ = −2 (genus 2), its extent exactly the plate.
