@@ -69,6 +69,26 @@ pub(super) fn mesh(
     Ok(out)
 }
 
+/// The crease counts of `--json` for a mesh made crease by crease: creases and corners as
+/// traced, and the mesh's vertices that lie on a crease polygon (with a `start`, only the
+/// part kept has its vertices counted).
+pub(super) fn counts(out: &CreasedMesh) -> super::mesh::CreaseCounts {
+    let bits = |p: &DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+    let in_mesh: std::collections::HashSet<[u64; 3]> = out.mesh.vertices.iter().map(bits).collect();
+    let on_creases: std::collections::HashSet<[u64; 3]> = out
+        .polygons
+        .iter()
+        .flatten()
+        .map(bits)
+        .filter(|b| in_mesh.contains(b))
+        .collect();
+    super::mesh::CreaseCounts {
+        creases: out.creases,
+        corners: out.corners,
+        crease_vertices: on_creases.len(),
+    }
+}
+
 /// A box for a block on a surface with creases that has a `start` and no `box`: the cells of
 /// an octree over ±`DERIVED_REACH` that the interval bound keeps, narrowed a few times, with a
 /// step's margin. None when the surface reaches that far (unbounded) or cannot bound itself;

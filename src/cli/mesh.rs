@@ -114,7 +114,20 @@ struct MeshJson<'a> {
     warnings: &'a [String],
     /// Whether the mesh was flipped against its ∇f to agree with the net it joins.
     flipped: bool,
+    /// The creases of a mesh made crease by crease, else null.
+    creases: Option<CreaseCounts>,
     seconds: f64,
+}
+
+/// What a mesh made crease by crease (`survey::creases`) has of its creases.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct CreaseCounts {
+    /// Crease curves traced in the box (closed loops and corner-to-corner curves).
+    pub creases: usize,
+    /// Corners where three pieces meet.
+    pub corners: usize,
+    /// Vertices of the mesh on a crease polygon (corners included), each once.
+    pub crease_vertices: usize,
 }
 
 /// A mesh block that was meshed.
@@ -140,6 +153,8 @@ pub struct Meshed {
     /// Whether the mesh is oriented against its ∇f, to agree with the meshes it shares a
     /// polygon with (`mesh::net`).
     pub flipped: bool,
+    /// The creases, when the mesh was made crease by crease.
+    pub creases: Option<CreaseCounts>,
     /// Wall-clock time to build and mesh the block, in seconds.
     pub seconds: f64,
 }
@@ -237,6 +252,7 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
                 max_chord_error: m.max_chord_error,
                 warnings: &m.warnings,
                 flipped: m.flipped,
+                creases: m.creases,
                 seconds: m.seconds,
             })
             .collect();
@@ -467,7 +483,8 @@ fn mesh_block(
         def.bounds.is_empty(),
     ) {
         let out = creases::mesh(c, &mut surface, def, bbox)?;
-        return Ok(finish(
+        let counts = creases::counts(&out);
+        let mut meshed = finish(
             program,
             source,
             def,
@@ -476,7 +493,9 @@ fn mesh_block(
             out.max_chord_error,
             out.warnings,
             started,
-        ));
+        );
+        meshed.creases = Some(counts);
+        return Ok(meshed);
     }
     let mut bounds = Vec::with_capacity(def.bounds.len());
     for &b in &def.bounds {
@@ -523,6 +542,12 @@ fn mesh_block(
                 SearchError::March { source, .. } => {
                     messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(source))
                 }
+                SearchError::CellBudget { .. } => messages::mesh_failed(
+                    &def.name,
+                    def.span,
+                    &e.to_string(),
+                    Some("raise `max_triangles` if the surface is this large at this step; else a smaller `box` around the part to mesh"),
+                ),
                 _ => messages::mesh_failed(&def.name, def.span, &e.to_string(), None),
             })?;
             warnings.extend(found.warnings.iter().map(ToString::to_string));
@@ -601,6 +626,7 @@ fn finish(
         max_chord_error,
         warnings,
         flipped: false,
+        creases: None,
         seconds: started.elapsed().as_secs_f64(),
     }
 }

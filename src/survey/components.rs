@@ -138,6 +138,24 @@ pub enum SearchError {
     /// The marcher failed on the component found at `seed`.
     #[error("the component found at {seed}: {source}")]
     March { seed: DVec3, source: MarchError },
+    /// The octree bounded more cells than a surface of `triangles` triangles passes through.
+    #[error(
+        "the component search bounded {cells} cells of the box, more than a surface of at most {triangles} triangles (`max_triangles`) passes through: the surface in the box is larger than that, or its bounds are loose"
+    )]
+    CellBudget { cells: usize, triangles: u64 },
+}
+
+/// Octree cells bounded per triangle the mesh may hold. A surface of T triangles (edges up
+/// to 1.2·step) has area below 0.62·T·step², so it passes through about 1.7·0.62·T ≈ T leaf
+/// cells of a step (a slab of kept cells about its thickness times √3 deep); with the
+/// siblings of each kept cell and the levels above, the octree bounds about 10 T cells when
+/// its bounds are tight. The gallery's box-only meshes bound 2–5 cells per triangle; 64
+/// leaves room for interval bounds that are loose by several cells.
+const CELLS_PER_TRIANGLE: u64 = 64;
+
+/// The most octree cells worth bounding for a mesh of at most `triangles` triangles.
+fn cell_budget(triangles: u64) -> usize {
+    usize::try_from(triangles.saturating_mul(CELLS_PER_TRIANGLE)).unwrap_or(usize::MAX)
 }
 
 /// Every component found in the box, joined into one mesh in the order found.
@@ -342,27 +360,75 @@ fn octree(
     leaf: f64,
     max_cells: usize,
 ) -> Candidates {
-    let mut out = Candidates::default();
-    for region in regions {
-        let mut stack = vec![region.cell];
-        while let Some(cell) = stack.pop() {
-            out.visited += 1;
-            if out.visited > max_cells {
-                out.truncated = true;
-                return out;
-            }
-            if !may_hold(surface, cell, region.need, leaf) {
-                continue;
-            }
-            if (cell.hi - cell.lo).max_element() <= leaf {
-                out.cells.push(cell);
-            } else {
-                // Reversed, so that the first child is searched first.
-                stack.extend(cell.split(leaf).into_iter().rev());
-            }
+    let mut walk = Walk::new(regions, leaf, max_cells);
+    let mut cells = Vec::new();
+    while let Some(cell) = walk.next(surface) {
+        cells.push(cell);
+    }
+    Candidates {
+        cells,
+        visited: walk.visited,
+        truncated: walk.truncated,
+    }
+}
+
+/// The octrees of [`octree`] walked lazily, one kept leaf at a time in the same order, so
+/// that the search can seed and march from the first leaves before the rest are bounded (and
+/// stop there when the marches reach `max_triangles`).
+struct Walk {
+    /// Regions not begun, last first.
+    regions: Vec<Region>,
+    /// The region being walked and its cells still to bound, next last.
+    current: Option<([bool; 3], Vec<Cell>)>,
+    leaf: f64,
+    max_cells: usize,
+    visited: usize,
+    truncated: bool,
+}
+
+impl Walk {
+    fn new(mut regions: Vec<Region>, leaf: f64, max_cells: usize) -> Walk {
+        regions.reverse();
+        Walk {
+            regions,
+            current: None,
+            leaf,
+            max_cells,
+            visited: 0,
+            truncated: false,
         }
     }
-    out
+
+    /// The next kept leaf, or None when every region is walked or `max_cells` is reached.
+    fn next(&mut self, surface: &mut dyn Surface) -> Option<Cell> {
+        loop {
+            if self.truncated {
+                return None;
+            }
+            let (need, stack) = match &mut self.current {
+                Some((need, stack)) if !stack.is_empty() => (*need, stack),
+                _ => {
+                    let region = self.regions.pop()?;
+                    self.current = Some((region.need, vec![region.cell]));
+                    continue;
+                }
+            };
+            let cell = stack.pop()?;
+            self.visited += 1;
+            if self.visited > self.max_cells {
+                self.truncated = true;
+                return None;
+            }
+            if !may_hold(surface, cell, need, self.leaf) {
+                continue;
+            }
+            if (cell.hi - cell.lo).max_element() <= self.leaf {
+                return Some(cell);
+            }
+            // Reversed, so that the first child is searched first.
+            stack.extend(cell.split(self.leaf).into_iter().rev());
+        }
+    }
 }
 
 /// How each component is marched: the step, the limit on triangles (for the total, as it
@@ -425,9 +491,10 @@ pub fn mesh_components_beside(
     if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
         return Err(SearchError::InvalidBox { lo, hi });
     }
-    let Candidates {
-        cells, truncated, ..
-    } = candidate_cells(surface, lo, hi, settings.leaf * step, settings.max_cells);
+    let limit = max_triangles.unwrap_or(march_settings.max_triangles);
+    // The octree's work, bounded by what the mesh may hold as well as by `max_cells`.
+    let budget = cell_budget(limit).min(settings.max_cells);
+    let mut walk = Walk::new(regions(lo, hi), settings.leaf * step, budget);
     let mut search = Search {
         surface,
         step,
@@ -435,23 +502,20 @@ pub fn mesh_components_beside(
         bbox: (lo, hi),
         march_settings,
         settings,
-        limit: max_triangles.unwrap_or(march_settings.max_triangles),
+        limit,
         cover: Cover::new(step),
         out: Components::default(),
         small: Vec::new(),
     };
     let Search { cover, out, .. } = &mut search;
     cover.add(&mut out.mesh, existing);
-    if truncated {
-        search.out.warnings.push(Warning::CellLimit {
-            cells: settings.max_cells,
-        });
-    }
-    // First pass: seeds away from the faces; the others wait for the second.
+    // First pass, as the octree yields its leaves: seeds away from the faces are marched at
+    // once (a march past `max_triangles` ends the search there); the others wait for the
+    // second pass.
     let mut near_faces: Vec<SurfacePoint> = Vec::new();
     let mut unseeded: Vec<Cell> = Vec::new();
-    for cell in &cells {
-        let cell = search.solid(*cell);
+    while let Some(cell) = walk.next(&mut *search.surface) {
+        let cell = search.solid(cell);
         let Some(found) = search.seeds_of(cell) else {
             unseeded.push(cell);
             continue;
@@ -463,6 +527,20 @@ pub fn mesh_components_beside(
                 near_faces.push(sp);
             }
         }
+    }
+    if walk.truncated {
+        if budget < settings.max_cells {
+            return Err(SearchError::CellBudget {
+                cells: budget,
+                triangles: limit,
+            });
+        }
+        search.out.warnings.insert(
+            0,
+            Warning::CellLimit {
+                cells: settings.max_cells,
+            },
+        );
     }
     for sp in &near_faces {
         search.try_seed(sp)?;

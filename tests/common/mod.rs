@@ -5,6 +5,7 @@
 
 pub mod build;
 pub mod cli;
+pub mod csg;
 pub mod rng;
 pub mod thin;
 pub mod voxel;

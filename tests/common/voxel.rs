@@ -25,6 +25,13 @@ pub struct SolidCount {
     /// The grid indices (lowest, highest corner) of the box around every inside vertex, or
     /// `None` if no vertex is inside: the solid's extent to within one cell.
     pub inside: Option<([usize; 3], [usize; 3])>,
+    /// Grid vertices inside: times a cell's volume, the solid's volume to within about a
+    /// cell's thickness over its surface.
+    pub inside_vertices: i64,
+    /// Connected components of the complement (the outside vertices, joined across the
+    /// cubes the complex leaves out: 26-neighbours). Each beyond the one that holds the box's
+    /// faces is a cavity, a further component of the bounding surface.
+    pub outside_components: usize,
 }
 
 impl SolidCount {
@@ -37,20 +44,35 @@ impl SolidCount {
 /// Samples `f` on an `n`×`n`×`n`-cell grid over `lo..hi` (so (n+1)³ values) and counts the
 /// solid {f < 0}.
 pub fn solid_count(f: impl Fn(DVec3) -> f64, lo: DVec3, hi: DVec3, n: usize) -> SolidCount {
+    count(&sample(f, lo, hi, n), n)
+}
+
+/// Whether each of the (n+1)³ grid vertices is inside, x fastest.
+fn sample(f: impl Fn(DVec3) -> f64, lo: DVec3, hi: DVec3, n: usize) -> Vec<bool> {
     assert!(n >= 2, "a grid needs at least two cells a side");
     let m = n + 1;
-    let idx = |i: usize, j: usize, k: usize| (k * m + j) * m + i;
     let h = (hi - lo) / n as f64;
-    let mut inside = vec![false; m * m * m];
+    let mut inside = Vec::with_capacity(m * m * m);
+    for k in 0..m {
+        for j in 0..m {
+            for i in 0..m {
+                inside.push(f(lo + h * DVec3::new(i as f64, j as f64, k as f64)) < 0.0);
+            }
+        }
+    }
+    inside
+}
+
+/// The counts of the inside vertices of an (n+1)³ sampling.
+fn count(inside: &[bool], n: usize) -> SolidCount {
+    let m = n + 1;
+    let idx = |i: usize, j: usize, k: usize| (k * m + j) * m + i;
     let mut touches_box = false;
     let mut inside_box: Option<([usize; 3], [usize; 3])> = None;
     for k in 0..m {
         for j in 0..m {
             for i in 0..m {
-                let p = lo + h * DVec3::new(i as f64, j as f64, k as f64);
-                let is_in = f(p) < 0.0;
-                inside[idx(i, j, k)] = is_in;
-                if is_in {
+                if inside[idx(i, j, k)] {
                     touches_box |= [i, j, k].iter().any(|&c| c == 0 || c == n);
                     let (lo, hi) = inside_box.get_or_insert(([i, j, k], [i, j, k]));
                     for (a, c) in [i, j, k].into_iter().enumerate() {
@@ -87,51 +109,106 @@ pub fn solid_count(f: impl Fn(DVec3) -> f64, lo: DVec3, hi: DVec3, n: usize) -> 
     }
     SolidCount {
         euler: v - e + f2 - c,
-        components: components(&inside, m),
+        inside_vertices: v,
+        components: components(inside, m, true, false),
+        outside_components: components(inside, m, false, true),
         touches_box,
         inside: inside_box,
     }
 }
 
-/// Connected components of the inside vertices, joined along grid edges (6-neighbours).
-fn components(inside: &[bool], m: usize) -> usize {
+/// Connected components of the grid vertices whose inside flag is `side`: joined along grid
+/// edges (6-neighbours), or across whole cubes too (26-neighbours) when `diagonal`.
+fn components(inside: &[bool], m: usize, side: bool, diagonal: bool) -> usize {
+    let mut count = 0;
+    each_component(inside, m, side, diagonal, |_| count += 1);
+    count
+}
+
+/// Calls `visit` with the vertices of each connected component of the grid vertices whose
+/// inside flag is `side` (joined as in `components`).
+fn each_component(
+    inside: &[bool],
+    m: usize,
+    side: bool,
+    diagonal: bool,
+    mut visit: impl FnMut(&[usize]),
+) {
     let mut seen = vec![false; inside.len()];
     let mut stack = Vec::new();
-    let mut count = 0;
+    let mut members = Vec::new();
+    let offsets: Vec<[i64; 3]> = (-1..=1)
+        .flat_map(|k| (-1..=1).flat_map(move |j| (-1..=1).map(move |i| [i, j, k])))
+        .filter(|o| {
+            let nonzero = o.iter().filter(|&&c| c != 0).count();
+            nonzero > 0 && (diagonal || nonzero == 1)
+        })
+        .collect();
+    let m = m as i64;
     for start in 0..inside.len() {
-        if !inside[start] || seen[start] {
+        if inside[start] != side || seen[start] {
             continue;
         }
-        count += 1;
+        members.clear();
         seen[start] = true;
         stack.push(start);
         while let Some(s) = stack.pop() {
-            let (i, j, k) = (s % m, (s / m) % m, s / (m * m));
-            let mut visit = |t: usize| {
-                if inside[t] && !seen[t] {
+            members.push(s);
+            let s = s as i64;
+            let at = [s % m, (s / m) % m, s / (m * m)];
+            for o in &offsets {
+                let n = [at[0] + o[0], at[1] + o[1], at[2] + o[2]];
+                if n.iter().any(|&c| c < 0 || c >= m) {
+                    continue;
+                }
+                let t = ((n[2] * m + n[1]) * m + n[0]) as usize;
+                if inside[t] == side && !seen[t] {
                     seen[t] = true;
                     stack.push(t);
                 }
-            };
-            if i > 0 {
-                visit(s - 1);
-            }
-            if i + 1 < m {
-                visit(s + 1);
-            }
-            if j > 0 {
-                visit(s - m);
-            }
-            if j + 1 < m {
-                visit(s + m);
-            }
-            if k > 0 {
-                visit(s - m * m);
-            }
-            if k + 1 < m {
-                visit(s + m * m);
             }
         }
+        visit(&members);
     }
-    count
+}
+
+/// The solid {f < 0} sampled as `solid_count` does, read in both ways a sampling can be read,
+/// with crumbs of fewer than `smallest` vertices removed first:
+/// - `.0` the inside's complex (inside vertices joined along grid edges, the outside across
+///   cubes), as `solid_count` counts it;
+/// - `.1` the complement's complex (the outside joined along edges, the inside across cubes):
+///   the count of {f ≥ 0}, whose χ is 1 + χ(solid) by duality in the grid's box.
+///
+/// Where the solid or its complement is thinner than the grid — the tip of a sharp wedge along
+/// a crease — each reading breaks it into crumbs differently: crumbs are inside (outside)
+/// components of fewer than `smallest` vertices, which are given to the other side before
+/// counting. When the two readings still disagree, the grid does not resolve the solid.
+pub fn two_readings(
+    f: impl Fn(DVec3) -> f64,
+    lo: DVec3,
+    hi: DVec3,
+    n: usize,
+    smallest: usize,
+) -> (SolidCount, SolidCount) {
+    let sampled = sample(f, lo, hi, n);
+    let m = n + 1;
+    let cleaned = |inside_diagonal: bool| {
+        let mut cells = sampled.clone();
+        for side in [true, false] {
+            let diagonal = side == inside_diagonal;
+            let mut crumbs = Vec::new();
+            each_component(&cells, m, side, diagonal, |c| {
+                if c.len() < smallest {
+                    crumbs.extend_from_slice(c);
+                }
+            });
+            for c in crumbs {
+                cells[c] = !side;
+            }
+        }
+        cells
+    };
+    let inside = cleaned(false);
+    let outside: Vec<bool> = cleaned(true).iter().map(|b| !b).collect();
+    (count(&inside, n), count(&outside, n))
 }
