@@ -28,9 +28,12 @@ pub fn format(file: &File) -> String {
             });
     let placed = assign(&top, &entries);
     for (k, item) in file.items.iter().enumerate() {
-        for (n, c) in placed.leading[k].iter().enumerate() {
+        for c in &placed.leading[k] {
             let inside = c.span.start >= item.span.start;
-            if !out.is_empty() && c.blank_line_before && !inside && n == 0 {
+            // A blank line before a comment is kept wherever it was written between
+            // statements (also between two leading comments), never for a comment moved out
+            // of an expression: its blank line belonged to the inside of the statement.
+            if !out.is_empty() && c.blank_line_before && !inside && !out.ends_with("\n\n") {
                 out.push('\n');
             }
             out.push_str(&c.text);
@@ -49,8 +52,8 @@ pub fn format(file: &File) -> String {
         }
         out.push('\n');
     }
-    for (n, c) in placed.footer.iter().enumerate() {
-        if !out.is_empty() && c.blank_line_before && n == 0 {
+    for c in &placed.footer {
+        if !out.is_empty() && c.blank_line_before && !out.ends_with("\n\n") {
             out.push('\n');
         }
         out.push_str(&c.text);
