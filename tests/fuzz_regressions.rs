@@ -8,7 +8,9 @@ use surfc::eval::Engine;
 use surfc::{diag, sema, syntax};
 
 fn fixture(name: &str) -> String {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/fuzz").join(name);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/fuzz")
+        .join(name);
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
@@ -24,11 +26,19 @@ fn assert_formats_stably(text: &str) -> String {
     let file = parse(text);
     let once = syntax::format(&file);
     let again = parse(&once);
-    assert_eq!(syntax::sexpr(&file), syntax::sexpr(&again), "fmt changed the AST\n{once}");
+    assert_eq!(
+        syntax::sexpr(&file),
+        syntax::sexpr(&again),
+        "fmt changed the AST\n{once}"
+    );
     let comments = |f: &syntax::ast::File| -> Vec<String> {
         f.comments.iter().map(|c| c.text.clone()).collect()
     };
-    assert_eq!(comments(&file), comments(&again), "fmt changed the comments");
+    assert_eq!(
+        comments(&file),
+        comments(&again),
+        "fmt changed the comments"
+    );
     assert_eq!(once, syntax::format(&again), "fmt is not idempotent");
     once
 }
@@ -80,6 +90,10 @@ fn a_sheet_in_a_huge_box_stops_at_the_triangle_limit() {
             "{name}: the diagnostic does not name the limit: {said}"
         );
         // Generous against a loaded machine; the run it replaces never ended within 60 s.
-        assert!(started.elapsed().as_secs() < 20, "{name}: {:?}", started.elapsed());
+        assert!(
+            started.elapsed().as_secs() < 20,
+            "{name}: {:?}",
+            started.elapsed()
+        );
     }
 }
