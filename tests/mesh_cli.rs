@@ -153,7 +153,7 @@ fn usage_and_io_errors_exit_2_naming_the_path() {
 }
 
 /// A box and no start: every component in the box; `components` and `warnings` in the JSON
-/// report, the warning (a ball smaller than the step) also on stderr, and the components
+/// report, the warning (a ball smaller than the local step's floor, step/256) also on stderr, and the components
 /// column in the summary table.
 #[test]
 fn box_only_mesh_reports_components_and_warnings() {
@@ -161,7 +161,7 @@ fn box_only_mesh_reports_components_and_warnings() {
     let file = write(
         &dir,
         "balls.surf",
-        "surface balls = min(x^2 + y^2 + z^2 - 1, min((x - 3)^2 + y^2 + z^2 - 1, (x - 1.5)^2 + (y - 1.5)^2 + z^2 - 0.0025));\n\
+        "surface balls = min(x^2 + y^2 + z^2 - 1, min((x - 3)^2 + y^2 + z^2 - 1, (x - 1.5)^2 + (y - 1.5)^2 + z^2 - 0.00000001));\n\
          mesh balls = balls { step: 0.25; box: (-2, -2, -2) .. (5, 2, 2); }\n",
     );
     let (code, stdout, stderr) = surfc(&["mesh", &file, "--json"], &dir);

@@ -17,16 +17,21 @@
 //!    order, gives a seed: surfacepoint from its centre (or,
 //!    when that does not converge or leaves the box while the cell shows a sign change, from
 //!    the centres of its eight octants). A seed inside the box that no mesh covers yet — no
-//!    triangle within `covered · step` whose normal agrees with the seed's: two sheets
+//!    triangle within `covered` local steps or edges whose normal agrees with the seed's: two sheets
 //!    closer than the step have opposite normals, so they are never mistaken for one — starts
 //!    a new component, marched with `march::march` from that point and the box.
 //! 3. Seeds at least `face_margin · step` from the box's faces go first (a hexagon at a face
 //!    would leave slivers), the others after, so a component that touches the box only near
 //!    a face is still found.
 //!
+//! Where a leaf gives no seed, or its seeds' local step (`survey::sizing`) is well below the
+//! leaf, the leaf is walked again with leaves of about that size (a thin tube, a flat plate,
+//! small balls: DESIGN.md §4a, "cells of about the local step"), and the coverage and
+//! smallness tests are sized by the local step and the mesh's own edges.
+//!
 //! Deterministic: the cells, their seeds and the components follow one fixed order, so the
-//! same surface gives the same mesh, bit for bit. A component smaller than the step (the
-//! hexagon of Step 0 does not fit on it) and a cell with a sign change where no seed
+//! same surface gives the same mesh, bit for bit. A component smaller than its local step
+//! (the hexagon of Step 0 does not fit on it even at the floor) and a cell with a sign change where no seed
 //! converges are warnings, never silently dropped; a component the marcher cannot complete
 //! is an error, as for a start point.
 
@@ -40,6 +45,8 @@ use crate::mesh::Mesh;
 use crate::solve::{SurfacePoint, surface_point};
 use crate::surface::Surface;
 
+use super::sizing::Sizing;
+
 /// Settings of the component search. Lengths are multiples of the step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SearchSettings {
@@ -47,8 +54,9 @@ pub struct SearchSettings {
     /// 1.0: a kept cell's centre is within a step of the extreme point it holds, so Newton
     /// from there reaches the piece through that point.
     pub leaf: f64,
-    /// A seed is covered when a triangle of the mesh so far lies within `covered · step` of
-    /// it with a normal that agrees (`covered_normal_cos`). Default 0.3: a triangle's chord
+    /// A seed is covered when a triangle of the mesh so far lies within `covered` times the
+    /// larger of the seed's local step and the triangle's longest edge, with a normal that
+    /// agrees (`covered_normal_cos`). Default 0.3: a triangle's chord
     /// error at the curvature the marcher meshes is well below it, and another sheet that
     /// close has the opposite normal.
     pub covered: f64,
@@ -60,9 +68,10 @@ pub struct SearchSettings {
     /// First pass: seeds closer than `face_margin · step` to a face of the box wait for the
     /// second pass. Default 0.5.
     pub face_margin: f64,
-    /// A seed whose Step 0 hexagon points land within `small · step` of it (the surface
-    /// closes up within the step) is a component smaller than the step: a warning, not a
-    /// march. Default 0.5 (a sphere of diameter below about the step).
+    /// A seed whose Step 0 hexagon points (of side h, the local step there) land within
+    /// `small · h` of it (the surface closes up within h) is a component smaller than its
+    /// local step: a warning, not a march. Default 0.5 (a sphere of diameter below about h;
+    /// h is at its floor, step/256, on such a sphere, or the step with `uniform: true`).
     pub small: f64,
     /// A cell's seed must land within `seed_reach · step` of the cell. Default 1.0.
     pub seed_reach: f64,
@@ -93,8 +102,8 @@ impl Default for SearchSettings {
 /// Something the search could not mesh, with its place.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Warning {
-    /// A component the Step 0 hexagon does not fit on.
-    SmallComponent { at: DVec3 },
+    /// A component the Step 0 hexagon of the local step `h` does not fit on.
+    SmallComponent { at: DVec3, h: f64 },
     /// Cells where f changes sign but no seed converged onto the surface in the box.
     NoSeed { at: DVec3, cells: usize },
     /// The octree reached `max_cells`; cells beyond were not searched.
@@ -105,9 +114,9 @@ impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let p = |p: DVec3| format!("({}, {}, {})", p.x, p.y, p.z);
         match self {
-            Warning::SmallComponent { at } => write!(
+            Warning::SmallComponent { at, h } => write!(
                 f,
-                "a component near {} is smaller than the step and was not meshed",
+                "a component near {} is smaller than the step can resolve (the local step there is {h:e}) and was not meshed",
                 p(*at)
             ),
             Warning::NoSeed { at, cells: 1 } => write!(
@@ -362,8 +371,8 @@ fn octree(
 ) -> Candidates {
     let mut walk = Walk::new(regions, leaf, max_cells);
     let mut cells = Vec::new();
-    while let Some(cell) = walk.next(surface) {
-        cells.push(cell);
+    while let Some(pending) = walk.next(surface) {
+        cells.push(pending.cell);
     }
     Candidates {
         cells,
@@ -374,16 +383,26 @@ fn octree(
 
 /// The octrees of [`octree`] walked lazily, one kept leaf at a time in the same order, so
 /// that the search can seed and march from the first leaves before the rest are bounded (and
-/// stop there when the marches reach `max_triangles`).
+/// stop there when the marches reach `max_triangles`). A kept leaf can be walked again with
+/// a finer leaf ([`Walk::refine`]): the octree goes down to about the local step where the
+/// surface has features smaller than the step (DESIGN.md §4a *Components*).
 struct Walk {
     /// Regions not begun, last first.
     regions: Vec<Region>,
-    /// The region being walked and its cells still to bound, next last.
-    current: Option<([bool; 3], Vec<Cell>)>,
+    /// Cells still to bound, next last, each with its region's `need` and its leaf size.
+    stack: Vec<Pending>,
     leaf: f64,
     max_cells: usize,
     visited: usize,
     truncated: bool,
+}
+
+/// A cell of [`Walk`] with what bounding it needs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Pending {
+    cell: Cell,
+    need: [bool; 3],
+    leaf: f64,
 }
 
 impl Walk {
@@ -391,7 +410,7 @@ impl Walk {
         regions.reverse();
         Walk {
             regions,
-            current: None,
+            stack: Vec::new(),
             leaf,
             max_cells,
             visited: 0,
@@ -400,34 +419,53 @@ impl Walk {
     }
 
     /// The next kept leaf, or None when every region is walked or `max_cells` is reached.
-    fn next(&mut self, surface: &mut dyn Surface) -> Option<Cell> {
+    fn next(&mut self, surface: &mut dyn Surface) -> Option<Pending> {
         loop {
             if self.truncated {
                 return None;
             }
-            let (need, stack) = match &mut self.current {
-                Some((need, stack)) if !stack.is_empty() => (*need, stack),
-                _ => {
-                    let region = self.regions.pop()?;
-                    self.current = Some((region.need, vec![region.cell]));
-                    continue;
-                }
+            let Some(pending) = self.stack.pop() else {
+                let region = self.regions.pop()?;
+                self.stack.push(Pending {
+                    cell: region.cell,
+                    need: region.need,
+                    leaf: self.leaf,
+                });
+                continue;
             };
-            let cell = stack.pop()?;
             self.visited += 1;
             if self.visited > self.max_cells {
                 self.truncated = true;
                 return None;
             }
-            if !may_hold(surface, cell, need, self.leaf) {
+            let Pending { cell, need, leaf } = pending;
+            if !may_hold(surface, cell, need, leaf) {
                 continue;
             }
-            if (cell.hi - cell.lo).max_element() <= self.leaf {
-                return Some(cell);
+            if (cell.hi - cell.lo).max_element() <= leaf {
+                return Some(pending);
             }
             // Reversed, so that the first child is searched first.
-            stack.extend(cell.split(self.leaf).into_iter().rev());
+            self.stack
+                .extend(cell.split(leaf).into_iter().rev().map(|cell| Pending {
+                    cell,
+                    need,
+                    leaf,
+                }));
         }
+    }
+
+    /// Walks the kept leaf `pending` again, down to `leaf`, before anything else.
+    fn refine(&mut self, pending: Pending, leaf: f64) {
+        let need = pending.need;
+        self.stack.extend(
+            pending
+                .cell
+                .split(leaf)
+                .into_iter()
+                .rev()
+                .map(|cell| Pending { cell, need, leaf }),
+        );
     }
 }
 
@@ -495,9 +533,18 @@ pub fn mesh_components_beside(
     // The octree's work, bounded by what the mesh may hold as well as by `max_cells`.
     let budget = cell_budget(limit).min(settings.max_cells);
     let mut walk = Walk::new(regions(lo, hi), settings.leaf * step, budget);
+    let tolerance = marching
+        .tolerance
+        .unwrap_or(march_settings.tolerance * step);
+    let sizing = if marching.uniform {
+        Sizing::uniform(step)
+    } else {
+        Sizing::new(step, tolerance, march_settings.sizing)
+    };
     let mut search = Search {
         surface,
         step,
+        sizing,
         marching,
         bbox: (lo, hi),
         march_settings,
@@ -511,22 +558,52 @@ pub fn mesh_components_beside(
     cover.add(&mut out.mesh, existing);
     // First pass, as the octree yields its leaves: seeds away from the faces are marched at
     // once (a march past `max_triangles` ends the search there); the others wait for the
-    // second pass.
-    let mut near_faces: Vec<SurfacePoint> = Vec::new();
+    // second pass. A kept leaf is walked again with smaller leaves, down to the local step's
+    // floor, where it may hide what its seeds did not find: when no seed came from it (Newton
+    // from its centre missed a thin plate or a small ball in it), and when its seeds ask for
+    // a local step well below the leaf (a thin tube, a small ball, a narrow gap: a second
+    // component in the cell gets cells and seeds of its own at about that size).
+    let floor = search.sizing.floor();
+    let mut near_faces: Vec<Seed> = Vec::new();
     let mut unseeded: Vec<Cell> = Vec::new();
-    while let Some(cell) = walk.next(&mut *search.surface) {
-        let cell = search.solid(cell);
-        let Some(found) = search.seeds_of(cell) else {
-            unseeded.push(cell);
-            continue;
-        };
-        for sp in found {
-            if search.away_from_faces(sp.point) {
-                search.try_seed(&sp)?;
-            } else {
-                near_faces.push(sp);
+    let mut refined = 0_usize;
+    while let Some(pending) = walk.next(&mut *search.surface) {
+        let cell = search.solid(pending.cell, pending.leaf);
+        let finer_than_floor = |leaf: f64| (leaf >= floor).then_some(leaf);
+        let finer = match search.seeds_of(cell) {
+            None => {
+                let finer = finer_than_floor(0.5 * pending.leaf);
+                if finer.is_none() {
+                    unseeded.push(cell);
+                }
+                finer
             }
+            Some(found) if found.is_empty() => finer_than_floor(0.5 * pending.leaf),
+            Some(found) => {
+                let mut finest = f64::INFINITY;
+                for sp in found {
+                    let seed = search.sized(sp);
+                    finest = finest.min(seed.h);
+                    if search.away_from_faces(seed.sp.point) {
+                        search.try_seed(&seed)?;
+                    } else {
+                        near_faces.push(seed);
+                    }
+                }
+                let finer = (REFINE_LEAF * finest).max(floor);
+                (finer < 0.5 * pending.leaf).then_some(finer)
+            }
+        };
+        if let Some(leaf) = finer {
+            walk.refine(pending, leaf);
+            refined += 1;
         }
+    }
+    if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
+        eprintln!(
+            "components: {} cells bounded, {refined} leaves walked again finer, {} components",
+            walk.visited, search.out.components
+        );
     }
     if walk.truncated {
         if budget < settings.max_cells {
@@ -542,8 +619,8 @@ pub fn mesh_components_beside(
             },
         );
     }
-    for sp in &near_faces {
-        search.try_seed(sp)?;
+    for seed in &near_faces {
+        search.try_seed(seed)?;
     }
     // A cell the marcher went through anyway is no gap.
     let Search { cover, out, .. } = &mut search;
@@ -561,6 +638,8 @@ pub fn mesh_components_beside(
 struct Search<'a> {
     surface: &'a mut dyn Surface,
     step: f64,
+    /// The local step the marches will use, for sizing the seeds' tests.
+    sizing: Sizing,
     marching: Marching,
     bbox: (DVec3, DVec3),
     march_settings: &'a MarchSettings,
@@ -569,8 +648,15 @@ struct Search<'a> {
     limit: u64,
     cover: Cover,
     out: Components,
-    /// Seeds of components smaller than the step (warned once).
-    small: Vec<SurfacePoint>,
+    /// Seeds of components smaller than their local step (warned once).
+    small: Vec<Seed>,
+}
+
+/// A seed with the local step there.
+#[derive(Clone, Copy, Debug)]
+struct Seed {
+    sp: SurfacePoint,
+    h: f64,
 }
 
 impl Search<'_> {
@@ -582,9 +668,8 @@ impl Search<'_> {
     /// A face or edge cell made solid: grown into the box by a leaf's size along its flat
     /// axes, so that its seeds start inside the box next to where the surface crosses the
     /// face. Cells of the inside are returned as they are.
-    fn solid(&self, mut cell: Cell) -> Cell {
+    fn solid(&self, mut cell: Cell, leaf: f64) -> Cell {
         let (lo, hi) = self.bbox;
-        let leaf = self.settings.leaf * self.step;
         for k in 0..3 {
             if cell.lo[k] < cell.hi[k] {
                 continue;
@@ -680,35 +765,45 @@ impl Search<'_> {
         neg && pos
     }
 
-    /// Marches a new component from `sp` unless a mesh already covers it.
-    fn try_seed(&mut self, sp: &SurfacePoint) -> Result<(), SearchError> {
-        let reach = self.step
-            * if self.away_from_faces(sp.point) {
-                self.settings.covered
-            } else {
-                self.settings.covered_at_faces
-            };
+    /// `sp` with the local step the march would take there (the step itself with
+    /// `uniform: true`).
+    fn sized(&mut self, sp: SurfacePoint) -> Seed {
+        let h = self.sizing.size(self.surface, &sp, None).h;
+        Seed { sp, h }
+    }
+
+    /// Marches a new component from `seed` unless a mesh already covers it. The tests are
+    /// sized by the local step at the seed: a mesh there has edges of about that length, and
+    /// another sheet or component nearer than it has its own cells and seeds.
+    fn try_seed(&mut self, seed: &Seed) -> Result<(), SearchError> {
+        let Seed { sp, h } = seed;
+        let factor = if self.away_from_faces(sp.point) {
+            self.settings.covered
+        } else {
+            self.settings.covered_at_faces
+        };
         let cos = self.settings.covered_normal_cos;
         if self
             .cover
-            .covered(&self.out.mesh, sp.point, sp.normal, reach, cos)
+            .covered(&self.out.mesh, sp.point, sp.normal, factor, *h, cos)
         {
             return Ok(());
         }
-        // On a component smaller than the step the normals of nearby seeds point every way:
-        // distance alone tells the seeds of one small component.
+        // On a component smaller than its local step the normals of nearby seeds point every
+        // way: distance alone tells the seeds of one small component.
         let near_small = self
             .small
             .iter()
-            .any(|s| (s.point - sp.point).length() < self.step);
+            .any(|s| (s.sp.point - sp.point).length() < 2.0 * s.h);
         if near_small {
             return Ok(());
         }
-        if self.is_small(sp) {
-            self.small.push(*sp);
-            self.out
-                .warnings
-                .push(Warning::SmallComponent { at: sp.point });
+        if self.is_small(seed) {
+            self.small.push(*seed);
+            self.out.warnings.push(Warning::SmallComponent {
+                at: sp.point,
+                h: *h,
+            });
             return Ok(());
         }
         let input = MarchInput {
@@ -743,14 +838,14 @@ impl Search<'_> {
     }
 
     /// Whether most of `part`'s vertices (a sample of up to `DUPLICATE_SAMPLES`) are covered
-    /// by the mesh so far: then `part` is a sheet meshed already.
+    /// by the mesh so far (within `covered` times the edges of its triangles): then `part` is
+    /// a sheet meshed already.
     fn duplicates(&self, part: &Mesh) -> bool {
         let n = part.vertices.len();
         if n == 0 || self.out.mesh.triangles.is_empty() {
             return false;
         }
         let stride = n.div_ceil(DUPLICATE_SAMPLES);
-        let reach = self.settings.covered * self.step;
         let cos = self.settings.covered_normal_cos;
         let sampled = (0..n).step_by(stride);
         let total = sampled.clone().count();
@@ -760,7 +855,8 @@ impl Search<'_> {
                     &self.out.mesh,
                     part.vertices[i],
                     part.normals[i],
-                    reach,
+                    self.settings.covered,
+                    0.0,
                     cos,
                 )
             })
@@ -768,25 +864,26 @@ impl Search<'_> {
         2 * covered > total
     }
 
-    /// Whether the surface closes up within the step around `sp`: the points of the Step 0
-    /// hexagon, put on the surface, come back within `small · step` of it (or do not
-    /// converge at all).
-    fn is_small(&mut self, sp: &SurfacePoint) -> bool {
+    /// Whether the surface closes up within the local step around the seed: the points of
+    /// the Step 0 hexagon of side h, put on the surface, come back within `small · h` of it
+    /// (or do not converge at all). With the local step, h has reached its floor there.
+    fn is_small(&mut self, seed: &Seed) -> bool {
+        let Seed { sp, h } = *seed;
         (0..6).any(|i| {
             let w = i as f64 * std::f64::consts::FRAC_PI_3;
-            let q = sp.point + self.step * (w.cos() * sp.t1 + w.sin() * sp.t2);
-            match surface_point(
-                self.surface,
-                q,
-                self.step,
-                &self.march_settings.surface_point,
-            ) {
-                Ok(r) => (r.point - sp.point).length() < self.settings.small * self.step,
+            let q = sp.point + h * (w.cos() * sp.t1 + w.sin() * sp.t2);
+            match surface_point(self.surface, q, h, &self.march_settings.surface_point) {
+                Ok(r) => (r.point - sp.point).length() < self.settings.small * h,
                 Err(_) => true,
             }
         })
     }
 }
+
+/// A kept leaf is walked again with leaves of this many local steps (at the finest of its
+/// seeds) when that is below half the leaf: cells of about the local step, as the marcher
+/// sees the surface there.
+const REFINE_LEAF: f64 = 2.0;
 
 /// A seed's Newton iteration is close when its step is below this many steps; surfacepoint
 /// converges from there.
@@ -860,14 +957,18 @@ impl Cover {
         false
     }
 
-    /// Whether a triangle of `mesh` lies within `reach` of `p` with a normal agreeing with
-    /// `normal` (cosine above `cos`). Triangles have edges of about a step, so their
-    /// centroids are within `reach` + a step of any point within `reach` of them.
-    fn covered(&self, mesh: &Mesh, p: DVec3, normal: DVec3, reach: f64, cos: f64) -> bool {
+    /// Whether a triangle of `mesh` lies within `factor · max(h, its longest edge)` of `p`
+    /// with a normal agreeing with `normal` (cosine above `cos`). The reach follows the
+    /// mesh's own edges as well as the local step `h` at p: a seed on a crease (where the
+    /// local step measures the edge's kink, not the surface) is still within reach of the
+    /// pieces meshed up to it, and another sheet is farther from a triangle than its edges
+    /// (the marcher's thickness bound keeps it 2.5 edges away).
+    fn covered(&self, mesh: &Mesh, p: DVec3, normal: DVec3, factor: f64, h: f64, cos: f64) -> bool {
         let [i, j, k] = self.key(p);
-        // A triangle within `reach` has its centroid within `reach` + its circumradius
-        // (about 0.7 of a step for the marcher's edges) of p.
-        let r = (reach / self.cell + 0.7).ceil() as i64;
+        // A triangle within reach has its centroid within the reach + its circumradius
+        // (about 0.7 of a step for the marcher's longest edges, 1.2 steps) of p.
+        let farthest = factor * h.max(1.2 * self.cell);
+        let r = (farthest / self.cell + 0.7).ceil() as i64;
         for dk in -r..=r {
             for dj in -r..=r {
                 for di in -r..=r {
@@ -878,9 +979,12 @@ impl Cover {
                         let [a, b, c] =
                             mesh.triangles[t as usize].map(|v| mesh.vertices[v as usize]);
                         let n = (b - a).cross(c - a).normalize_or_zero();
-                        if n.dot(normal) > cos
-                            && (closest_on_triangle(p, a, b, c) - p).length() < reach
-                        {
+                        if n.dot(normal) <= cos {
+                            continue;
+                        }
+                        let edge = a.distance(b).max(b.distance(c)).max(c.distance(a));
+                        let reach = factor * h.max(edge);
+                        if (closest_on_triangle(p, a, b, c) - p).length() < reach {
                             return true;
                         }
                     }
