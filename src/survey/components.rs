@@ -558,18 +558,23 @@ pub fn mesh_components_beside(
     cover.add(&mut out.mesh, existing);
     // First pass, as the octree yields its leaves: seeds away from the faces are marched at
     // once (a march past `max_triangles` ends the search there); the others wait for the
-    // second pass. A kept leaf is walked again with smaller leaves, down to the local step's
-    // floor, where it may hide what its seeds did not find: when no seed came from it (Newton
-    // from its centre missed a thin plate or a small ball in it), and when its seeds ask for
-    // a local step well below the leaf (a thin tube, a small ball, a narrow gap: a second
-    // component in the cell gets cells and seeds of its own at about that size).
+    // second pass. A kept leaf is walked again with smaller leaves where it may hide what its
+    // seeds did not find: when no seed came from it (Newton from its centre missed a thin
+    // plate or a small ball in it), and when the thickness across its seeds asks for a local
+    // step well below the leaf (a thin tube, a small ball, a narrow gap: a second component
+    // in the cell gets cells and seeds of its own at about that size).
     let floor = search.sizing.floor();
     let mut near_faces: Vec<Seed> = Vec::new();
     let mut unseeded: Vec<Cell> = Vec::new();
     let mut refined = 0_usize;
     while let Some(pending) = walk.next(&mut *search.surface) {
         let cell = search.solid(pending.cell, pending.leaf);
-        let finer_than_floor = |leaf: f64| (leaf >= floor).then_some(leaf);
+        // A leaf without a seed is halved down to `SEEDLESS_LEAF` of a step: a plate or
+        // ball that thin is seeded by then (Newton from a centre within a few thicknesses of
+        // it converges), and going on to the floor costs many cells where Newton fails for
+        // other reasons (near the kinks of a `max`).
+        let seedless_floor = floor.max(SEEDLESS_LEAF * step);
+        let finer_than_floor = |leaf: f64| (leaf >= seedless_floor).then_some(leaf);
         let finer = match search.seeds_of(cell) {
             None => {
                 let finer = finer_than_floor(0.5 * pending.leaf);
@@ -583,7 +588,7 @@ pub fn mesh_components_beside(
                 let mut finest = f64::INFINITY;
                 for sp in found {
                     let seed = search.sized(sp);
-                    finest = finest.min(seed.h);
+                    finest = finest.min(seed.across);
                     if search.away_from_faces(seed.sp.point) {
                         search.try_seed(&seed)?;
                     } else {
@@ -657,6 +662,10 @@ struct Search<'a> {
 struct Seed {
     sp: SurfacePoint,
     h: f64,
+    /// The local step the thickness across the seed allows (another sheet along ±n: a
+    /// small ball's far side, a thin tube's, a plate's, a gap), at least `h`. The curvature
+    /// part of `h` does not count here: at a crease it measures the kink.
+    across: f64,
 }
 
 impl Search<'_> {
@@ -766,17 +775,23 @@ impl Search<'_> {
     }
 
     /// `sp` with the local step the march would take there (the step itself with
-    /// `uniform: true`).
+    /// `uniform: true`), and the part of it that the thickness across sets.
     fn sized(&mut self, sp: SurfacePoint) -> Seed {
-        let h = self.sizing.size(self.surface, &sp, None).h;
-        Seed { sp, h }
+        let size = self.sizing.size(self.surface, &sp, None);
+        let across =
+            (self.sizing.settings().thickness_fraction * size.free).clamp(size.h, self.step);
+        Seed {
+            sp,
+            h: size.h,
+            across,
+        }
     }
 
     /// Marches a new component from `seed` unless a mesh already covers it. The tests are
     /// sized by the local step at the seed: a mesh there has edges of about that length, and
     /// another sheet or component nearer than it has its own cells and seeds.
     fn try_seed(&mut self, seed: &Seed) -> Result<(), SearchError> {
-        let Seed { sp, h } = seed;
+        let Seed { sp, h, .. } = seed;
         let factor = if self.away_from_faces(sp.point) {
             self.settings.covered
         } else {
@@ -868,7 +883,7 @@ impl Search<'_> {
     /// the Step 0 hexagon of side h, put on the surface, come back within `small · h` of it
     /// (or do not converge at all). With the local step, h has reached its floor there.
     fn is_small(&mut self, seed: &Seed) -> bool {
-        let Seed { sp, h } = *seed;
+        let Seed { sp, h, .. } = *seed;
         (0..6).any(|i| {
             let w = i as f64 * std::f64::consts::FRAC_PI_3;
             let q = sp.point + h * (w.cos() * sp.t1 + w.sin() * sp.t2);
@@ -884,6 +899,9 @@ impl Search<'_> {
 /// seeds) when that is below half the leaf: cells of about the local step, as the marcher
 /// sees the surface there.
 const REFINE_LEAF: f64 = 2.0;
+
+/// Leaves without a seed are walked again down to this many steps (five halvings).
+const SEEDLESS_LEAF: f64 = 1.0 / 32.0;
 
 /// A seed's Newton iteration is close when its step is below this many steps; surfacepoint
 /// converges from there.
