@@ -294,7 +294,12 @@ fn edges_cross(vs: &[DVec3], t: [u32; 3], u: [u32; 3]) -> bool {
 fn beside(vs: &[DVec3], t: [u32; 3], u: [u32; 3]) -> bool {
     let [a, b, c] = t.map(|i| vs[i as usize]);
     let n = (b - a).cross(c - a);
-    let reach = a.distance(b).max(b.distance(c)).max(c.distance(a));
+    // One square root for the longest side (the same bits as the largest of three lengths).
+    let reach = a
+        .distance_squared(b)
+        .max(b.distance_squared(c))
+        .max(c.distance_squared(a))
+        .sqrt();
     let margin = 1e-9 * n.length() * reach;
     let (mut above, mut below) = (false, false);
     for k in u {
