@@ -65,7 +65,7 @@ fn crossing_spheres(step_a: f64, step_b: f64, origin: DVec3) {
         let r = (d.y * d.y + d.z * d.z).sqrt();
         (d.x * d.x + (r - radius).powi(2)).sqrt()
     };
-    let mut covered = vec![false; 72];
+    let mut covered = [false; 72];
     for &[i, j] in &pairs {
         assert!(
             i < na && j >= na,
