@@ -481,8 +481,10 @@ impl Tracer<'_> {
         Ok(out)
     }
 
+    /// Form i and the function whose zero on it is the seam with form j
+    /// (`Creased::seam`: form j, or the selector of a lifted choice).
     fn pair(&mut self, i: usize, j: usize, p: DVec3) -> (ValueGrad, ValueGrad) {
-        (self.c.form(i, p), self.c.form(j, p))
+        self.c.seam(i, j, p)
     }
 
     /// The tie tolerance of the spine at a point where the gradients are about `g` long.
@@ -797,13 +799,16 @@ impl Tracer<'_> {
         Ok(self.corners.len() - 1)
     }
 
-    /// Newton on three forms from `start`: the common zero, or None (no convergence, or
-    /// normals that do not span space: a singular corner is found as such by the caller).
+    /// Newton on three forms from `start` (form i and its seams with j and k): the common
+    /// zero, or None (no convergence, or normals that do not span space: a singular corner
+    /// is found as such by the caller).
     fn newton3(&mut self, forms: [usize; 3], start: DVec3) -> Option<DVec3> {
         let mut p = start;
         let mut last = f64::INFINITY;
+        let [i, j, k] = forms;
         for _ in 0..60 {
-            let v = forms.map(|f| self.c.form(f, p));
+            let (li, sj) = self.pair(i, j, p);
+            let v = [li, sj, self.pair(i, k, p).1];
             let rows = DMat3::from_cols(v[0].gradient, v[1].gradient, v[2].gradient).transpose();
             let det = rows.determinant();
             let size: f64 = v.iter().map(|x| x.gradient.length()).product();
