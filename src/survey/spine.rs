@@ -231,7 +231,11 @@ impl Spine {
     /// Every form of f (every pattern of choices), each once, in a fixed order; at most
     /// `max` of them.
     pub fn forms(&self, max: usize) -> Result<Vec<Form>, SpineError> {
-        Ok(self.forms_with_picks(max)?.into_iter().map(|f| f.0).collect())
+        Ok(self
+            .forms_with_picks(max)?
+            .into_iter()
+            .map(|f| f.0)
+            .collect())
     }
 
     /// Every form of f, each once, with the picks of every pattern of choices that makes it.
@@ -254,7 +258,11 @@ impl Spine {
     /// The forms f is made of near the point whose branch values are `values`: every pattern
     /// of choices where each choice is the operand taken or within `eps` of it (a selector
     /// within `eps` of 0). With `None`, every pattern. Each form comes with its value and picks.
-    fn candidates(&self, values: Option<(&[f64], f64)>, max: usize) -> Result<Vec<Cand>, SpineError> {
+    fn candidates(
+        &self,
+        values: Option<(&[f64], f64)>,
+        max: usize,
+    ) -> Result<Vec<Cand>, SpineError> {
         let n = self.branches + 1;
         let unit = |k: usize, c: f64, value: f64| {
             let mut coefficients = vec![0.0; n];
@@ -382,12 +390,12 @@ impl Spine {
         Ok(terms.pop().unwrap_or_default())
     }
 
-    /// The selector of the choice that tells two forms apart, from their picks: the
-    /// selector term of a `Select` one pattern of each takes differently, preferring a
-    /// pair of patterns that differ in that choice alone. None when no `Select` does (they
-    /// differ in a plain `min`, `max` or `abs`, whose seam is where the two forms are equal).
-    fn selector_between(&self, a: &[Picks], b: &[Picks]) -> Option<usize> {
-        let mut any = None;
+    /// How two forms are told apart, from their picks: by one `Select` (its selector term),
+    /// preferring a pair of patterns that differ in that choice alone; by plain `min`, `max`
+    /// or `abs` only (their seam is where the two forms are equal); or only by two lifted
+    /// choices or more, so that they meet at corners, not along a seam.
+    fn between(&self, a: &[Picks], b: &[Picks]) -> Between {
+        let mut plain = false;
         for pa in a {
             for pb in b {
                 let differ: Vec<usize> = pa
@@ -395,19 +403,31 @@ impl Spine {
                     .filter(|(t, c)| pb.iter().any(|(u, d)| u == t && d != c))
                     .map(|&(t, _)| t)
                     .collect();
-                let sel = |t: usize| match self.terms[t] {
-                    Term::Select(_, _, s) => Some(s),
-                    _ => None,
-                };
                 match differ[..] {
-                    [t] => return sel(t),
-                    [t, ..] if any.is_none() => any = sel(t),
+                    [] => plain = true,
+                    [t] => {
+                        if let Term::Select(_, _, s) = self.terms[t] {
+                            return Between::Select(s);
+                        }
+                    }
                     _ => {}
                 }
             }
         }
-        any
+        if plain {
+            Between::Plain
+        } else {
+            Between::Apart
+        }
     }
+}
+
+/// How two forms are told apart (`Spine::between`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Between {
+    Plain,
+    Select(usize),
+    Apart,
 }
 
 /// A surface with creases: its spine, the branch surfaces, and the forms (the smooth pieces).
@@ -416,8 +436,8 @@ pub struct Creased {
     branches: Vec<Box<dyn Surface>>,
     forms: Vec<Form>,
     index: HashMap<Vec<u64>, usize>,
-    /// The selector term between two forms (both orders), where a `Select` tells them apart.
-    seams: HashMap<(usize, usize), usize>,
+    /// How each pair of forms is told apart (both orders; absent: `Between::Plain`).
+    seams: HashMap<(usize, usize), Between>,
     scratch: Vec<ValueGrad>,
 }
 
@@ -436,9 +456,10 @@ impl Creased {
         if spine.has_selectors() {
             for (i, (_, pi)) in with_picks.iter().enumerate() {
                 for (j, (_, pj)) in with_picks.iter().enumerate().skip(i + 1) {
-                    if let Some(s) = spine.selector_between(pi, pj) {
-                        seams.insert((i, j), s);
-                        seams.insert((j, i), s);
+                    let b = spine.between(pi, pj);
+                    if b != Between::Plain {
+                        seams.insert((i, j), b);
+                        seams.insert((j, i), b);
                     }
                 }
             }
@@ -484,10 +505,16 @@ impl Creased {
         self.eval_branches(p);
         let li = self.forms[i].combine(&self.scratch);
         let other = match self.seams.get(&(i, j)) {
-            Some(&s) => self.spine.term_values(&self.scratch)[s],
-            None => self.forms[j].combine(&self.scratch),
+            Some(&Between::Select(s)) => self.spine.term_values(&self.scratch)[s],
+            _ => self.forms[j].combine(&self.scratch),
         };
         (li, other)
+    }
+
+    /// Whether forms i and j can meet along a seam: not when only two lifted choices or more
+    /// tell them apart (they meet at corners only).
+    pub fn adjacent(&self, i: usize, j: usize) -> bool {
+        self.seams.get(&(i, j)) != Some(&Between::Apart)
     }
 
     /// Value and gradient of f at p, through the spine.

@@ -502,12 +502,9 @@ impl Tree {
             Tree::Min(a, b) => format!("min({},\n  {})", a.source(), b.source()),
             Tree::Max(a, b) => format!("max({},\n  {})", a.source(), b.source()),
             Tree::Difference(a, b) => format!("max({},\n  -({}))", a.source(), b.source()),
-            Tree::Smooth(op, a, b, r) => format!(
-                "{}({},\n  {}, {r})",
-                op.name(),
-                a.source(),
-                b.source()
-            ),
+            Tree::Smooth(op, a, b, r) => {
+                format!("{}({},\n  {}, {r})", op.name(), a.source(), b.source())
+            }
         }
     }
 
@@ -524,7 +521,10 @@ impl Tree {
     pub fn primitives(&self) -> Vec<Primitive> {
         match self {
             Tree::Leaf(prim) => vec![*prim],
-            Tree::Min(a, b) | Tree::Max(a, b) | Tree::Difference(a, b) | Tree::Smooth(_, a, b, _) => {
+            Tree::Min(a, b)
+            | Tree::Max(a, b)
+            | Tree::Difference(a, b)
+            | Tree::Smooth(_, a, b, _) => {
                 let mut out = a.primitives();
                 out.extend(b.primitives());
                 out
