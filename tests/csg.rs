@@ -335,3 +335,29 @@ fn nested_solids_stay_small() {
     let n = s.tape().instrs().len();
     assert!(n < 2000, "{n} instructions");
 }
+
+/// `min` and `max` take any number of operands from two: the values of the folded calls
+/// against the same formulas computed here, and `fmt` keeps the calls as written.
+#[test]
+fn min_and_max_take_two_or_more_operands() {
+    let text = "surface big = max(x - 1, -x - 1, y - 2, z^2 - 3);\n\
+                surface small = min(x, y, z, 2 - x, 5);\n";
+    let program = checked(text);
+    let mut big = surface(&program, "big");
+    let mut small = surface(&program, "small");
+    let mut rng = Rng(11);
+    for _ in 0..500 {
+        let p = random_point(&mut rng, 3.0);
+        let want = [p.x - 1.0, -p.x - 1.0, p.y - 2.0, p.z * p.z - 3.0]
+            .into_iter()
+            .fold(f64::NEG_INFINITY, f64::max);
+        assert_eq!(big.value(p), want, "{p}");
+        let want = [p.x, p.y, p.z, 2.0 - p.x, 5.0]
+            .into_iter()
+            .fold(f64::INFINITY, f64::min);
+        assert_eq!(small.value(p), want, "{p}");
+    }
+    let (file, diags) = surfc::syntax::parse(text);
+    assert!(diags.is_empty(), "{diags:?}");
+    assert_eq!(surfc::syntax::format(&file.expect("parses")), text);
+}

@@ -653,7 +653,7 @@ fn march_help(e: &MarchError) -> Option<&'static str> {
             "a smaller `step` may get past small features or a singular point; a `box` can keep the mesh away from it"
         }
         MarchError::HiddenCrease { .. } => {
-            "creases are traced where `min`, `max`, `abs` or a sharp boolean or primitive is the outer part of the formula; one inside a smooth boolean or another function hides its edges: keep sharp parts outside smooth booleans, or round the edge with a smooth boolean (docs/creases.md)"
+            "creases are traced where `min`, `max`, `abs` or a sharp boolean or primitive is reached from the outside of the formula through sums, constant factors and smooth booleans; one inside another function (`exp`, `sin`, a product) hides its edges: keep sharp parts outside such functions, or round the edge with a smooth boolean (docs/creases.md)"
         }
         MarchError::PolygonTooShort { .. }
         | MarchError::PolygonSpacing { .. }

@@ -58,6 +58,10 @@ pub struct Lowerer<'p> {
     active_surfaces: Vec<SurfaceId>,
     /// The targets of `dist`, each once, in order of first appearance, with where.
     pub dists: Vec<(SurfaceRef, Span)>,
+    /// The nodes that are a smooth boolean's smooth minimum (`sema::solids::is_smooth_min`),
+    /// with their operands a, b and radius r: the spine lifts the `min`/`max` inside them
+    /// (`compile::spine`).
+    pub smooth_mins: HashMap<NodeId, [NodeId; 3]>,
     depth: u32,
 }
 
@@ -74,6 +78,7 @@ impl<'p> Lowerer<'p> {
             call_spans: Vec::new(),
             active_surfaces: Vec::new(),
             dists: Vec::new(),
+            smooth_mins: HashMap::new(),
             depth: 0,
         }
     }
@@ -217,6 +222,9 @@ impl<'p> Lowerer<'p> {
                 self.active_fns.pop();
                 self.call_spans.pop();
                 let n = n?;
+                if let (true, &[a, b, r]) = (crate::sema::solids::is_smooth_min(def), &key.1[..]) {
+                    self.smooth_mins.insert(n, [a, b, r]);
+                }
                 self.calls.insert(key, n);
                 n
             }

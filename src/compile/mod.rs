@@ -147,8 +147,9 @@ pub fn lower_spine(
     program: &Program,
     r: &SurfaceRef,
 ) -> Result<Option<(crate::survey::spine::Spine, Vec<Lowered>)>, CompileError> {
-    let (lowerer, out) = lower_graph(program, r)?;
-    let Some(found) = spine::find(&lowerer.graph, out) else {
+    let (mut lowerer, out) = lower_graph(program, r)?;
+    let smooth = std::mem::take(&mut lowerer.smooth_mins);
+    let Some(found) = spine::find(&mut lowerer.graph, &smooth, out) else {
         return Ok(None);
     };
     let branches = found

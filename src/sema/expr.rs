@@ -85,7 +85,8 @@ fn signature(name: &str, params: &[&str]) -> String {
 pub(crate) fn builtin_signature(b: Builtin) -> String {
     let params: &[&str] = match b {
         Builtin::Atan2 => &["y", "x"],
-        Builtin::Min | Builtin::Max | Builtin::Hypot => &["a", "b"],
+        Builtin::Hypot => &["a", "b"],
+        Builtin::Min | Builtin::Max => &["a", "b", "…"],
         Builtin::Pow => &["base", "exponent"],
         _ => &["t"],
     };
@@ -359,17 +360,30 @@ impl<'f> Checker<'f> {
             if !self.positional_only(name, &sig, args, cx) {
                 return number(0.0, span);
             }
-            if args.len() != b.arity() {
+            // `min` and `max` take two or more operands (like `union` and `intersection`),
+            // folded from the left into the two-operand builtins the compiler knows.
+            let variadic = matches!(b, Builtin::Min | Builtin::Max);
+            if args.len() != b.arity() && !(variadic && args.len() > b.arity()) {
+                let expected = if variadic {
+                    format!("at least {}", count_words(b.arity()))
+                } else {
+                    count_words(b.arity())
+                };
                 return self.fail(
                     cx,
-                    messages::wrong_arity(span, name, &sig, &count_words(b.arity()), args.len()),
+                    messages::wrong_arity(span, name, &sig, &expected, args.len()),
                 );
             }
-            let lowered = args.iter().map(|a| self.lower(&a.value, cx)).collect();
-            return Expr {
+            let mut lowered: Vec<Expr> = args.iter().map(|a| self.lower(&a.value, cx)).collect();
+            let rest = lowered.split_off(b.arity());
+            let first = Expr {
                 kind: ExprKind::Builtin(b, lowered),
                 span,
             };
+            return rest.into_iter().fold(first, |acc, e| Expr {
+                kind: ExprKind::Builtin(b, vec![acc, e]),
+                span,
+            });
         }
         if COMBINATORS.contains(&name) {
             return self.lower_combinator(name, args, span, cx);

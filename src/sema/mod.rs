@@ -11,7 +11,7 @@ mod expr;
 mod graph;
 mod items;
 pub mod program;
-mod solids;
+pub(crate) mod solids;
 pub mod suggest;
 #[cfg(test)]
 mod tests;

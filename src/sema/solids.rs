@@ -187,6 +187,13 @@ impl Build {
     }
 }
 
+/// Whether `def` is the smooth minimum the smooth booleans call: made by sema (no span of
+/// its own), unlike a user's `fn smooth_union`, which has one. The compiler lifts the sharp
+/// parts out of it (`compile::spine`).
+pub fn is_smooth_min(def: &FnDef) -> bool {
+    def.name == "smooth_union" && def.span == Span::default() && def.params.len() == 3
+}
+
 /// A transform with its arguments lowered (constants folded to numbers).
 enum Transform {
     Translate([Expr; 3]),
@@ -481,7 +488,8 @@ impl Checker<'_> {
         })
     }
 
-    /// The function `smin(a, b, r)` of the smooth booleans, added to the program once.
+    /// The function `smin(a, b, r)` of the smooth booleans, added to the program once
+    /// (`is_smooth_min` tells it from a user's function of the same name).
     fn smin_fn(&mut self) -> FnId {
         if let Some(id) = self.smin {
             return id;

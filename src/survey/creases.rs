@@ -121,6 +121,8 @@ pub enum CreaseError {
     LeftPiece { at: DVec3, distance: f64 },
     #[error("a triangle near {at} spans two pieces of the surface: a crease was missed there")]
     MissedCrease { at: DVec3 },
+    #[error("the pieces do not join into one surface near {at}: {why}")]
+    Joined { at: DVec3, why: &'static str },
     #[error("the crease search stopped after {cells} cells; a smaller box would let it finish")]
     CellLimit { cells: usize },
     #[error(transparent)]
@@ -193,6 +195,9 @@ pub fn mesh_creased(
     for (cell_lo, cell_hi, zero) in &cells {
         for (a, &i) in zero.iter().enumerate() {
             for &j in &zero[a + 1..] {
+                if !t.c.adjacent(i, j) {
+                    continue;
+                }
                 if let Some(seed) = t.seed(i, j, *cell_lo, *cell_hi)? {
                     if !t.covered(i, j, seed) {
                         let traced = t.trace(i, j, seed)?;
@@ -308,7 +313,58 @@ pub fn mesh_creased(
     out.warnings.extend(found.march_warnings);
     out.smooth_components = found.components;
     out.mesh = merge(&[found.mesh]);
+    check_joined(&out.mesh)?;
     Ok(out)
+}
+
+/// The joined mesh is one surface: no edge in more than two triangles, none walked the same
+/// way twice (two pieces on one side of a crease), every triangle facing where the normals
+/// of its vertices point (a sliver closed across a thin piece does not), and no triangles
+/// crossing (each march checks its own; this checks them across pieces and components).
+fn check_joined(mesh: &Mesh) -> Result<(), CreaseError> {
+    let centre = |t: usize| {
+        mesh.triangles[t]
+            .iter()
+            .map(|&k| mesh.vertices[k as usize])
+            .sum::<DVec3>()
+            / 3.0
+    };
+    let mut uses: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
+    for (n, t) in mesh.triangles.iter().enumerate() {
+        let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
+        let normals: DVec3 = t.iter().map(|&k| mesh.normals[k as usize]).sum();
+        let facing = (b - a).cross(c - a).dot(normals);
+        if facing.is_nan() || facing <= 0.0 {
+            return Err(CreaseError::Joined {
+                at: centre(n),
+                why: "a triangle faces against the surface's normal",
+            });
+        }
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let entry = uses.entry((a.min(b), a.max(b))).or_insert((0, 0));
+            if a < b {
+                entry.0 += 1;
+            } else {
+                entry.1 += 1;
+            }
+            if entry.0 > 1 || entry.1 > 1 {
+                let why = if entry.0 + entry.1 > 2 {
+                    "an edge is in more than two triangles"
+                } else {
+                    "two triangles on one side of an edge"
+                };
+                return Err(CreaseError::Joined { at: centre(n), why });
+            }
+        }
+    }
+    if let Some([a, _]) = crate::mesh::check::intersecting_pairs(mesh).first() {
+        return Err(CreaseError::Joined {
+            at: centre(*a as usize),
+            why: "triangles of two pieces cross",
+        });
+    }
+    Ok(())
 }
 
 /// How many traced points of a crease are probed for the side its pieces lie on.
@@ -481,8 +537,10 @@ impl Tracer<'_> {
         Ok(out)
     }
 
+    /// Form i and the function whose zero on it is the seam with form j
+    /// (`Creased::seam`: form j, or the selector of a lifted choice).
     fn pair(&mut self, i: usize, j: usize, p: DVec3) -> (ValueGrad, ValueGrad) {
-        (self.c.form(i, p), self.c.form(j, p))
+        self.c.seam(i, j, p)
     }
 
     /// The tie tolerance of the spine at a point where the gradients are about `g` long.
@@ -797,13 +855,21 @@ impl Tracer<'_> {
         Ok(self.corners.len() - 1)
     }
 
-    /// Newton on three forms from `start`: the common zero, or None (no convergence, or
-    /// normals that do not span space: a singular corner is found as such by the caller).
+    /// Newton on three forms from `start` (form i and its seams with j and k): the common
+    /// zero, or None (no convergence, or normals that do not span space: a singular corner
+    /// is found as such by the caller).
     fn newton3(&mut self, forms: [usize; 3], start: DVec3) -> Option<DVec3> {
         let mut p = start;
         let mut last = f64::INFINITY;
+        // Pivot on a form whose seams with both others exist.
+        let [i, j, k] = match forms {
+            [i, j, k] if !self.c.adjacent(i, k) && self.c.adjacent(j, k) => [j, i, k],
+            [i, j, k] if !self.c.adjacent(i, j) && self.c.adjacent(k, j) => [k, i, j],
+            f => f,
+        };
         for _ in 0..60 {
-            let v = forms.map(|f| self.c.form(f, p));
+            let (li, sj) = self.pair(i, j, p);
+            let v = [li, sj, self.pair(i, k, p).1];
             let rows = DMat3::from_cols(v[0].gradient, v[1].gradient, v[2].gradient).transpose();
             let det = rows.determinant();
             let size: f64 = v.iter().map(|x| x.gradient.length()).product();

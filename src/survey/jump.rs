@@ -1,6 +1,6 @@
 //! Sharp edges the crease search did not see: whether the direction of ∇f jumps near a point
-//! (a sharp boolean, `abs` or primitive hidden inside a smooth boolean or another function,
-//! where the spine of `compile::spine` does not reach). The local step shrinks without end at
+//! (a sharp boolean, `abs` or primitive hidden inside a function or a product, or inside a
+//! smooth boolean too large to lift, where the spine of `compile::spine` does not reach). The local step shrinks without end at
 //! such an edge — its curvature probes always straddle it — so the marcher asks this where the
 //! step reaches its floor, and stops with the place instead of creeping along the edge.
 

@@ -6,6 +6,14 @@
 //!
 //! Built by `compile::spine` from the IR; knows nothing of syntax. Forms are identified by
 //! their coefficients, so two patterns of choices that give the same function are one piece.
+//!
+//! A [`Term::Select`] is a choice made by a *selector* rather than by comparing the operands:
+//! the `min`/`max`/`abs` lifted out of a smooth boolean (smin(max(a₁, a₂), b) =
+//! max(smin(a₁, b), smin(a₂, b)), exact because smin is monotone) picks its operand by
+//! a₁ − a₂, the choice of the original node, since both lifted operands equal b wherever the
+//! smooth boolean saturates. The seam between two forms that differ in such a choice is then
+//! traced on F = 0 ∩ {selector = 0} ([`Creased::seam`]): transversal in the saturated region
+//! too, where it is a seam through smooth surface, and the true crease elsewhere.
 
 use std::collections::HashMap;
 
@@ -30,6 +38,9 @@ pub enum Term {
     Min(usize, usize),
     Max(usize, usize),
     Abs(usize),
+    /// `Select(a, b, s)`: a where term s is ≥ 0, else b (a lifted choice, chosen by its
+    /// selector s; see the module documentation).
+    Select(usize, usize, usize),
 }
 
 /// The spine: terms in topological order, the root last.
@@ -37,6 +48,20 @@ pub enum Term {
 pub struct Spine {
     terms: Vec<Term>,
     branches: usize,
+    /// Terms the root's value depends on (through operands, not selectors): the others are
+    /// selectors only, and have no forms of their own to enumerate.
+    used: Vec<bool>,
+}
+
+/// The choices of the `Select` terms a form was made with: (term, operand a taken).
+pub type Picks = Vec<(usize, bool)>;
+
+/// One candidate form of a term: the form, its value at the point, and its picks.
+#[derive(Clone, Debug)]
+struct Cand {
+    form: Form,
+    value: f64,
+    picks: Picks,
 }
 
 /// A linear form Σ cₖ·bₖ + c over the branches: dense coefficients, the constant last.
@@ -107,6 +132,7 @@ impl Spine {
                 Term::Add(a, b) | Term::Sub(a, b) | Term::Min(a, b) | Term::Max(a, b) => {
                     a < i && b < i
                 }
+                Term::Select(a, b, c) => a < i && b < i && c < i,
             };
             if !ok {
                 return Err(SpineError::Malformed(i));
@@ -115,7 +141,35 @@ impl Spine {
         if terms.is_empty() {
             return Err(SpineError::Malformed(0));
         }
-        Ok(Spine { terms, branches })
+        let mut used = vec![false; terms.len()];
+        used[terms.len() - 1] = true;
+        for i in (0..terms.len()).rev() {
+            if !used[i] {
+                continue;
+            }
+            match terms[i] {
+                Term::Branch(_) | Term::Const(_) => {}
+                Term::Neg(a) | Term::Scale(_, a) | Term::Abs(a) => used[a] = true,
+                Term::Add(a, b)
+                | Term::Sub(a, b)
+                | Term::Min(a, b)
+                | Term::Max(a, b)
+                | Term::Select(a, b, _) => {
+                    used[a] = true;
+                    used[b] = true;
+                }
+            }
+        }
+        Ok(Spine {
+            terms,
+            branches,
+            used,
+        })
+    }
+
+    /// Whether a term chooses by a selector (the spine lifted a smooth boolean).
+    pub fn has_selectors(&self) -> bool {
+        self.terms.iter().any(|t| matches!(t, Term::Select(..)))
     }
 
     pub fn branch_count(&self) -> usize {
@@ -124,6 +178,12 @@ impl Spine {
 
     /// f from the branch values and gradients (the gradient of the chosen operands).
     pub fn value_gradient(&self, b: &[ValueGrad]) -> ValueGrad {
+        let v = self.term_values(b);
+        v[v.len() - 1]
+    }
+
+    /// Every term's value and gradient from the branch values and gradients.
+    fn term_values(&self, b: &[ValueGrad]) -> Vec<ValueGrad> {
         let mut v: Vec<ValueGrad> = Vec::with_capacity(self.terms.len());
         let vg = |value: f64, gradient: DVec3| ValueGrad { value, gradient };
         for t in &self.terms {
@@ -155,54 +215,86 @@ impl Spine {
                         v[a]
                     }
                 }
+                Term::Select(a, c, s) => {
+                    if v[s].value >= 0.0 {
+                        v[a]
+                    } else {
+                        v[c]
+                    }
+                }
             };
             v.push(x);
         }
-        v[v.len() - 1]
+        v
     }
 
     /// Every form of f (every pattern of choices), each once, in a fixed order; at most
     /// `max` of them.
     pub fn forms(&self, max: usize) -> Result<Vec<Form>, SpineError> {
+        Ok(self
+            .forms_with_picks(max)?
+            .into_iter()
+            .map(|f| f.0)
+            .collect())
+    }
+
+    /// Every form of f, each once, with the picks of every pattern of choices that makes it.
+    pub fn forms_with_picks(&self, max: usize) -> Result<Vec<(Form, Vec<Picks>)>, SpineError> {
         let cands = self.candidates(None, max)?;
-        let mut seen = HashMap::new();
-        let mut out = Vec::new();
-        for (f, _) in cands {
-            if seen.insert(f.key(), out.len()).is_none() {
-                out.push(f);
+        let mut seen: HashMap<Vec<u64>, usize> = HashMap::new();
+        let mut out: Vec<(Form, Vec<Picks>)> = Vec::new();
+        for c in cands {
+            match seen.get(&c.form.key()) {
+                Some(&k) => out[k].1.push(c.picks),
+                None => {
+                    seen.insert(c.form.key(), out.len());
+                    out.push((c.form, vec![c.picks]));
+                }
             }
         }
         Ok(out)
     }
 
     /// The forms f is made of near the point whose branch values are `values`: every pattern
-    /// of choices where each choice is the operand taken or within `eps` of it. With `None`,
-    /// every pattern. Each form comes with its value.
+    /// of choices where each choice is the operand taken or within `eps` of it (a selector
+    /// within `eps` of 0). With `None`, every pattern. Each form comes with its value and picks.
     fn candidates(
         &self,
         values: Option<(&[f64], f64)>,
         max: usize,
-    ) -> Result<Vec<(Form, f64)>, SpineError> {
+    ) -> Result<Vec<Cand>, SpineError> {
         let n = self.branches + 1;
-        let unit = |k: usize, c: f64| {
+        let unit = |k: usize, c: f64, value: f64| {
             let mut coefficients = vec![0.0; n];
             coefficients[k] = c;
-            Form { coefficients }
+            Cand {
+                form: Form { coefficients },
+                value,
+                picks: Vec::new(),
+            }
         };
-        let map = |list: &[(Form, f64)], s: f64| -> Vec<(Form, f64)> {
+        let map = |list: &[Cand], s: f64| -> Vec<Cand> {
             list.iter()
-                .map(|(f, v)| {
-                    let coefficients = f.coefficients.iter().map(|c| s * c).collect();
-                    (Form { coefficients }, s * v)
+                .map(|c| Cand {
+                    form: Form {
+                        coefficients: c.form.coefficients.iter().map(|x| s * x).collect(),
+                    },
+                    value: s * c.value,
+                    picks: c.picks.clone(),
                 })
                 .collect()
         };
-        let mut terms: Vec<Vec<(Form, f64)>> = Vec::with_capacity(self.terms.len());
-        let value = |list: &[(Form, f64)]| list.first().map_or(f64::NAN, |x| x.1);
-        for t in &self.terms {
+        let mut terms: Vec<Vec<Cand>> = Vec::with_capacity(self.terms.len());
+        let value = |list: &[Cand]| list.first().map_or(f64::NAN, |x| x.value);
+        for (index, t) in self.terms.iter().enumerate() {
+            // Without values, a term that only selects has no forms to enumerate.
+            if values.is_none() && !self.used[index] {
+                terms.push(Vec::new());
+                continue;
+            }
             let list = match *t {
-                Term::Branch(k) => vec![(unit(k, 1.0), values.map_or(0.0, |(b, _)| b[k]))],
-                Term::Const(c) => vec![(unit(n - 1, c), c)],
+                Term::Branch(k) => vec![unit(k, 1.0, values.map_or(0.0, |(b, _)| b[k]))],
+                Term::Const(c) => vec![unit(n - 1, c, c)],
                 Term::Neg(a) => map(&terms[a], -1.0),
                 Term::Scale(s, a) => map(&terms[a], s),
                 Term::Add(a, b) | Term::Sub(a, b) => {
@@ -212,15 +304,22 @@ impl Spine {
                         1.0
                     };
                     let mut out = Vec::new();
-                    for (fa, va) in &terms[a] {
-                        for (fb, vb) in &terms[b] {
-                            let coefficients = fa
+                    for ca in &terms[a] {
+                        for cb in &terms[b] {
+                            let coefficients = ca
+                                .form
                                 .coefficients
                                 .iter()
-                                .zip(&fb.coefficients)
+                                .zip(&cb.form.coefficients)
                                 .map(|(x, y)| x + s * y)
                                 .collect();
-                            out.push((Form { coefficients }, va + s * vb));
+                            let mut picks = ca.picks.clone();
+                            picks.extend_from_slice(&cb.picks);
+                            out.push(Cand {
+                                form: Form { coefficients },
+                                value: ca.value + s * cb.value,
+                                picks,
+                            });
                         }
                     }
                     out
@@ -247,6 +346,26 @@ impl Spine {
                     }
                     out
                 }
+                Term::Select(a, b, sel) => {
+                    let (take_a, take_b) = match values {
+                        None => (true, true),
+                        Some((_, eps)) => {
+                            let d = value(&terms[sel]);
+                            (d >= -eps, d <= eps)
+                        }
+                    };
+                    let mut out = Vec::new();
+                    for (take, from, pick) in [(take_a, a, true), (take_b, b, false)] {
+                        if take {
+                            out.extend(terms[from].iter().map(|c| {
+                                let mut c = c.clone();
+                                c.picks.push((index, pick));
+                                c
+                            }));
+                        }
+                    }
+                    out
+                }
                 Term::Abs(a) => {
                     let va = value(&terms[a]);
                     let (pos, neg) = match values {
@@ -270,6 +389,45 @@ impl Spine {
         }
         Ok(terms.pop().unwrap_or_default())
     }
+
+    /// How two forms are told apart, from their picks: by one `Select` (its selector term),
+    /// preferring a pair of patterns that differ in that choice alone; by plain `min`, `max`
+    /// or `abs` only (their seam is where the two forms are equal); or only by two lifted
+    /// choices or more, so that they meet at corners, not along a seam.
+    fn between(&self, a: &[Picks], b: &[Picks]) -> Between {
+        let mut plain = false;
+        for pa in a {
+            for pb in b {
+                let differ: Vec<usize> = pa
+                    .iter()
+                    .filter(|(t, c)| pb.iter().any(|(u, d)| u == t && d != c))
+                    .map(|&(t, _)| t)
+                    .collect();
+                match differ[..] {
+                    [] => plain = true,
+                    [t] => {
+                        if let Term::Select(_, _, s) = self.terms[t] {
+                            return Between::Select(s);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        if plain {
+            Between::Plain
+        } else {
+            Between::Apart
+        }
+    }
+}
+
+/// How two forms are told apart (`Spine::between`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Between {
+    Plain,
+    Select(usize),
+    Apart,
 }
 
 /// A surface with creases: its spine, the branch surfaces, and the forms (the smooth pieces).
@@ -278,6 +436,8 @@ pub struct Creased {
     branches: Vec<Box<dyn Surface>>,
     forms: Vec<Form>,
     index: HashMap<Vec<u64>, usize>,
+    /// How each pair of forms is told apart (both orders; absent: `Between::Plain`).
+    seams: HashMap<(usize, usize), Between>,
     scratch: Vec<ValueGrad>,
 }
 
@@ -291,7 +451,20 @@ impl Creased {
         if branches.len() != spine.branch_count() {
             return Err(SpineError::Malformed(0));
         }
-        let forms = spine.forms(MAX_FORMS)?;
+        let with_picks = spine.forms_with_picks(MAX_FORMS)?;
+        let mut seams = HashMap::new();
+        if spine.has_selectors() {
+            for (i, (_, pi)) in with_picks.iter().enumerate() {
+                for (j, (_, pj)) in with_picks.iter().enumerate().skip(i + 1) {
+                    let b = spine.between(pi, pj);
+                    if b != Between::Plain {
+                        seams.insert((i, j), b);
+                        seams.insert((j, i), b);
+                    }
+                }
+            }
+        }
+        let forms: Vec<Form> = with_picks.into_iter().map(|f| f.0).collect();
         let index = forms
             .iter()
             .enumerate()
@@ -302,6 +475,7 @@ impl Creased {
             branches,
             forms,
             index,
+            seams,
             scratch: Vec::new(),
         })
     }
@@ -323,6 +497,26 @@ impl Creased {
         self.forms[i].combine(&self.scratch)
     }
 
+    /// Form i and the function whose zero on it is the seam with form j, at p: form j where
+    /// a plain `min`/`max`/`abs` tells them apart (they are equal on the seam), else the
+    /// selector of the lifted choice between them (see the module documentation), which
+    /// stays transversal where the two forms coincide.
+    pub fn seam(&mut self, i: usize, j: usize, p: DVec3) -> (ValueGrad, ValueGrad) {
+        self.eval_branches(p);
+        let li = self.forms[i].combine(&self.scratch);
+        let other = match self.seams.get(&(i, j)) {
+            Some(&Between::Select(s)) => self.spine.term_values(&self.scratch)[s],
+            _ => self.forms[j].combine(&self.scratch),
+        };
+        (li, other)
+    }
+
+    /// Whether forms i and j can meet along a seam: not when only two lifted choices or more
+    /// tell them apart (they meet at corners only).
+    pub fn adjacent(&self, i: usize, j: usize) -> bool {
+        self.seams.get(&(i, j)) != Some(&Between::Apart)
+    }
+
     /// Value and gradient of f at p, through the spine.
     pub fn whole(&mut self, p: DVec3) -> ValueGrad {
         self.eval_branches(p);
@@ -339,7 +533,7 @@ impl Creased {
         };
         let mut out: Vec<usize> = cands
             .iter()
-            .filter_map(|(f, _)| self.index.get(&f.key()).copied())
+            .filter_map(|c| self.index.get(&c.form.key()).copied())
             .collect();
         out.sort_unstable();
         out.dedup();
@@ -434,7 +628,7 @@ mod tests {
             s.candidates(Some((&[b0, b1], eps)), 64)
                 .unwrap()
                 .into_iter()
-                .map(|(f, _)| f.coefficients)
+                .map(|c| c.form.coefficients)
                 .collect::<Vec<_>>()
         };
         assert_eq!(at(2.0, 0.5, 1e-9), vec![vec![1.0, 0.0, -1.0]]);

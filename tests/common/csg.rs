@@ -40,7 +40,7 @@ pub struct Primitive {
     pub turn: DMat3,
 }
 
-/// A tree of primitives joined by min, max and difference.
+/// A tree of primitives joined by min, max and difference, sharp or smooth.
 #[derive(Clone, Debug)]
 pub enum Tree {
     Leaf(Primitive),
@@ -48,6 +48,54 @@ pub enum Tree {
     Max(Box<Tree>, Box<Tree>),
     /// max(a, −b).
     Difference(Box<Tree>, Box<Tree>),
+    /// A smooth boolean of docs/language.md with its rounding radius.
+    Smooth(SmoothOp, Box<Tree>, Box<Tree>, f64),
+}
+
+/// The smooth booleans, as docs/language.md defines them from the polynomial smooth minimum.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SmoothOp {
+    /// smin(a, b).
+    Union,
+    /// −smin(−a, −b).
+    Intersection,
+    /// −smin(−a, b).
+    Difference,
+}
+
+impl SmoothOp {
+    fn name(self) -> &'static str {
+        match self {
+            SmoothOp::Union => "smooth_union",
+            SmoothOp::Intersection => "smooth_intersection",
+            SmoothOp::Difference => "smooth_difference",
+        }
+    }
+
+    /// The boolean of a and b with radius r, written out here (not surfc's code):
+    /// h = clamp(0.5 + 0.5·(b − a)/r, 0, 1), smin = b + (a − b)·h − r·h·(1 − h).
+    pub fn apply(self, a: f64, b: f64, r: f64) -> f64 {
+        let smin = |a: f64, b: f64| {
+            let h = (0.5 + 0.5 * (b - a) / r).clamp(0.0, 1.0);
+            b + (a - b) * h - r * h * (1.0 - h)
+        };
+        match self {
+            SmoothOp::Union => smin(a, b),
+            SmoothOp::Intersection => -smin(-a, -b),
+            SmoothOp::Difference => -smin(-a, b),
+        }
+    }
+}
+
+/// The quadratic smooth minimum of the reference's rounding, radius k.
+fn round_min(a: f64, b: f64, k: f64) -> f64 {
+    let h = (k - (a - b).abs()).max(0.0) / k;
+    a.min(b) - 0.25 * h * h * k
+}
+
+/// max rounded like `round_min`.
+fn round_max(a: f64, b: f64, k: f64) -> f64 {
+    -round_min(-a, -b, k)
 }
 
 impl Primitive {
@@ -125,6 +173,22 @@ impl Primitive {
                 let rho = (q.x * q.x + q.y * q.y).sqrt();
                 (rho - big) * (rho - big) + q.z * q.z - small * small
             }
+        }
+    }
+
+    /// The implicit function as the `.surf` text writes it, with its own sharp edges (those of
+    /// boxes and cylinders) rounded in value by `round_max` of radius k: what a smooth boolean
+    /// of the primitive sees, with no wedge tip for the grid to break.
+    fn softened(&self, p: DVec3, k: f64) -> f64 {
+        let q = self.local(p);
+        match self.shape {
+            Shape::Box { half } => round_max(
+                round_max(q.x.abs() - half.x, q.y.abs() - half.y, k),
+                q.z.abs() - half.z,
+                k,
+            ),
+            Shape::Cylinder { r, h } => round_max(q.x * q.x + q.y * q.y - r * r, q.z.abs() - h, k),
+            Shape::Sphere { .. } | Shape::Torus { .. } => self.value(p),
         }
     }
 
@@ -355,20 +419,40 @@ pub enum Degenerate {
 }
 
 impl Tree {
-    /// A random tree of `n` primitives.
-    pub fn random(rng: &mut Rng, n: usize) -> Tree {
+    /// A random tree of `n` primitives; with `smooth`, one node in three (on average) is a
+    /// smooth boolean with a radius from 0.08 to 0.25.
+    pub fn random(rng: &mut Rng, n: usize, smooth: bool) -> Tree {
         if n == 1 {
             return Tree::Leaf(Primitive::random(rng));
         }
         let left = 1 + (rng.next() as usize) % (n - 1);
         let (a, b) = (
-            Box::new(Tree::random(rng, left)),
-            Box::new(Tree::random(rng, n - left)),
+            Box::new(Tree::random(rng, left, smooth)),
+            Box::new(Tree::random(rng, n - left, smooth)),
         );
+        if smooth && rng.next() % 3 == 0 {
+            let op = match rng.next() % 3 {
+                0 => SmoothOp::Union,
+                1 => SmoothOp::Intersection,
+                _ => SmoothOp::Difference,
+            };
+            return Tree::Smooth(op, a, b, rng.range(0.08, 0.25));
+        }
         match rng.next() % 3 {
             0 => Tree::Min(a, b),
             1 => Tree::Max(a, b),
             _ => Tree::Difference(a, b),
+        }
+    }
+
+    /// Whether a smooth boolean is in the tree.
+    pub fn has_smooth(&self) -> bool {
+        match self {
+            Tree::Leaf(_) => false,
+            Tree::Smooth(..) => true,
+            Tree::Min(a, b) | Tree::Max(a, b) | Tree::Difference(a, b) => {
+                a.has_smooth() || b.has_smooth()
+            }
         }
     }
 
@@ -379,6 +463,7 @@ impl Tree {
             Tree::Min(a, b) => a.value(p).min(b.value(p)),
             Tree::Max(a, b) => a.value(p).max(b.value(p)),
             Tree::Difference(a, b) => a.value(p).max(-b.value(p)),
+            Tree::Smooth(op, a, b, r) => op.apply(a.value(p), b.value(p), *r),
         }
     }
 
@@ -388,16 +473,25 @@ impl Tree {
     /// near a crease) it has the tree's topology, and no wedge thinner than about `k` — the
     /// tips of sharp wedges, which a sampling grid breaks into crumbs and strands at any
     /// resolution, are gone.
+    ///
+    /// A tree with a smooth boolean is rounded in the values the `.surf` text computes
+    /// instead (`Primitive::softened`, sharp nodes by `round_min`): a smooth boolean's
+    /// fillet depends on its operands' values, not on their distances, so only those give
+    /// its shape. They differ from the tree's function by at most k/4 in value.
     pub fn rounded(&self, p: DVec3, k: f64) -> f64 {
-        let smin = |a: f64, b: f64| {
-            let h = (k - (a - b).abs()).max(0.0) / k;
-            a.min(b) - 0.25 * h * h * k
-        };
+        self.rounded_as(p, k, self.has_smooth())
+    }
+
+    fn rounded_as(&self, p: DVec3, k: f64, raw: bool) -> f64 {
+        let smin = |a: f64, b: f64| round_min(a, b, k);
+        let r = |t: &Tree| t.rounded_as(p, k, raw);
         match self {
+            Tree::Leaf(prim) if raw => prim.softened(p, k),
             Tree::Leaf(prim) => prim.rounded_distance(p, k),
-            Tree::Min(a, b) => smin(a.rounded(p, k), b.rounded(p, k)),
-            Tree::Max(a, b) => -smin(-a.rounded(p, k), -b.rounded(p, k)),
-            Tree::Difference(a, b) => -smin(-a.rounded(p, k), b.rounded(p, k)),
+            Tree::Min(a, b) => smin(r(a), r(b)),
+            Tree::Max(a, b) => -smin(-r(a), -r(b)),
+            Tree::Difference(a, b) => -smin(-r(a), r(b)),
+            Tree::Smooth(op, a, b, radius) => op.apply(r(a), r(b), *radius),
         }
     }
 
@@ -408,6 +502,9 @@ impl Tree {
             Tree::Min(a, b) => format!("min({},\n  {})", a.source(), b.source()),
             Tree::Max(a, b) => format!("max({},\n  {})", a.source(), b.source()),
             Tree::Difference(a, b) => format!("max({},\n  -({}))", a.source(), b.source()),
+            Tree::Smooth(op, a, b, r) => {
+                format!("{}({},\n  {}, {r})", op.name(), a.source(), b.source())
+            }
         }
     }
 
@@ -424,7 +521,10 @@ impl Tree {
     pub fn primitives(&self) -> Vec<Primitive> {
         match self {
             Tree::Leaf(prim) => vec![*prim],
-            Tree::Min(a, b) | Tree::Max(a, b) | Tree::Difference(a, b) => {
+            Tree::Min(a, b)
+            | Tree::Max(a, b)
+            | Tree::Difference(a, b)
+            | Tree::Smooth(_, a, b, _) => {
                 let mut out = a.primitives();
                 out.extend(b.primitives());
                 out
