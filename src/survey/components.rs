@@ -45,6 +45,7 @@ use crate::mesh::Mesh;
 use crate::solve::{SurfacePoint, surface_point};
 use crate::surface::Surface;
 
+use super::jump::gradient_jump;
 use super::sizing::Sizing;
 
 /// Settings of the component search. Lengths are multiples of the step.
@@ -588,7 +589,12 @@ pub fn mesh_components_beside(
                 let mut finest = f64::INFINITY;
                 for sp in found {
                     let seed = search.sized(sp);
-                    finest = finest.min(seed.across);
+                    // Beside a crease the thickness probe along one face's normal runs along
+                    // the other face: a kink, not a thin feature.
+                    let thin = REFINE_LEAF * seed.across < 0.5 * pending.leaf;
+                    if thin && !search.beside_crease(&seed) {
+                        finest = finest.min(seed.across);
+                    }
                     if search.away_from_faces(seed.sp.point) {
                         search.try_seed(&seed)?;
                     } else {
@@ -785,6 +791,12 @@ impl Search<'_> {
             h: size.h,
             across,
         }
+    }
+
+    /// Whether the direction of ∇f jumps within the seed's `across` of it (a crease).
+    fn beside_crease(&mut self, seed: &Seed) -> bool {
+        let sp = &seed.sp;
+        gradient_jump(self.surface, sp.point, (sp.t1, sp.t2), seed.across).is_some()
     }
 
     /// Marches a new component from `seed` unless a mesh already covers it. The tests are
