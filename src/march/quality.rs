@@ -338,6 +338,7 @@ impl<'a> Stage<'a> {
         t: u32,
         surface: &mut dyn Surface,
         tolerance: f64,
+        sliding: bool,
         project: &mut Project<'_>,
     ) -> (bool, usize) {
         let before = self.q(self.tri[t as usize]);
@@ -349,7 +350,7 @@ impl<'a> Stage<'a> {
                 break 'trial false;
             };
             let mut star = Vec::new();
-            if self.star(p, &mut star) {
+            if self.star(p, &mut star) || (sliding && self.open_star(p, &mut star)) {
                 let q: Vec<u32> = star.iter().map(|&e| next(e)).collect();
                 flips = self.flip_all(q, 64, surface, tolerance).0;
             }
@@ -370,7 +371,9 @@ impl<'a> Stage<'a> {
             ring.dedup();
             let mut moved = vec![p];
             for v in std::iter::once(p).chain(ring).chain(std::iter::once(p)) {
-                if self.free(v) && self.relax(v, &mut star, f64::INFINITY, surface, project) {
+                if (sliding || self.free(v))
+                    && self.relax(v, &mut star, f64::INFINITY, surface, project)
+                {
                     moved.push(v);
                 }
             }
@@ -1147,7 +1150,7 @@ impl<'a> Stage<'a> {
                     if self.q(self.tri[t as usize]) >= sin_bad {
                         continue;
                     }
-                    let (kept, flips) = self.insert_on_trial(t, surface, limits.tolerance, project);
+                    let (kept, flips) = self.insert_on_trial(t, surface, limits.tolerance, sliding, project);
                     if kept {
                         report.inserted += 1;
                         report.flips += flips;
