@@ -1150,7 +1150,8 @@ impl<'a> Stage<'a> {
                     if self.q(self.tri[t as usize]) >= sin_bad {
                         continue;
                     }
-                    let (kept, flips) = self.insert_on_trial(t, surface, limits.tolerance, sliding, project);
+                    let (kept, flips) =
+                        self.insert_on_trial(t, surface, limits.tolerance, sliding, project);
                     if kept {
                         report.inserted += 1;
                         report.flips += flips;
@@ -1288,6 +1289,10 @@ mod tests {
 
         /// Runs the stage with the first `fixed` vertices as polygon vertices.
         fn run(&mut self, fixed: usize) -> Report {
+            self.run_in(fixed, None)
+        }
+
+        fn run_in(&mut self, fixed: usize, bbox: Option<(DVec3, DVec3)>) -> Report {
             let limits = Limits {
                 angle: 0.524,
                 rounds: 6,
@@ -1301,7 +1306,7 @@ mod tests {
                 &mut self.border,
                 &mut self.h,
                 fixed,
-                None,
+                bbox,
             )
             .run(&limits, &mut Plane, &mut onto_plane)
         }
@@ -1447,6 +1452,44 @@ mod tests {
         assert_eq!(c.euler(), chi);
         assert!(c.all_up());
         assert!(c.pos.iter().all(|p| p.z == 0.0));
+    }
+
+    #[test]
+    fn border_vertices_slide_along_their_box_face_only() {
+        // The plane z = 0 cut by the box face x = 0: border points 0, 1, 2 on the face, 1
+        // close to 0, so (0, 3, 1) is an 8° sliver that only a slide of 1 (or 0) along the
+        // face can open.
+        let mut c = Case::new(
+            vec![
+                DVec3::new(0.0, 0.0, 0.0),
+                DVec3::new(0.0, 0.15, 0.0),
+                DVec3::new(0.0, 1.0, 0.0),
+                DVec3::new(0.866, 0.5, 0.0),
+            ],
+            vec![[0, 3, 1], [1, 3, 2]],
+        );
+        c.border = vec![true, true, true, false];
+        let bbox = (DVec3::new(0.0, -1.0, -1.0), DVec3::new(2.0, 2.0, 1.0));
+        let before = c.worst_deg();
+        c.run_in(0, Some(bbox));
+        assert!(
+            c.worst_deg() > before + 10.0,
+            "{} vs {before}",
+            c.worst_deg()
+        );
+        assert!(
+            c.pos[0].y != 0.0 || c.pos[1].y != 0.15,
+            "no border point slid"
+        );
+        for (p, &border) in c.pos.iter().zip(&c.border) {
+            assert_eq!(p.z, 0.0);
+            if border {
+                assert_eq!(p.x, 0.0, "a border point left its face: {p}");
+                assert!((-1.0..=2.0).contains(&p.y), "{p}");
+            }
+        }
+        assert!(c.all_up());
+        assert_eq!(c.euler(), 1);
     }
 
     #[test]
