@@ -664,7 +664,22 @@ impl<'a> Stage<'a> {
         let Some((sp, sn)) = project(target) else {
             return false;
         };
-        let (old_p, old_n) = (p, n);
+        self.move_if(v, star, (sp, sn), longest, &better)
+    }
+
+    /// Puts v at `to` (point, normal) if the fan is `better` there, every triangle of it
+    /// still faces ∇f and no edge of it is longer than `longest` (squared): what a move
+    /// checks once its target is on the surface. Returns whether v moved.
+    fn move_if(
+        &mut self,
+        v: u32,
+        star: &[u32],
+        to: (DVec3, DVec3),
+        longest: f64,
+        better: &dyn Fn(&Self, DVec3) -> bool,
+    ) -> bool {
+        let (sp, sn) = to;
+        let (old_p, old_n) = (self.p(v), self.normal[v as usize]);
         self.pos[v as usize] = sp;
         self.normal[v as usize] = sn;
         let ok = better(self, sp)
@@ -807,22 +822,10 @@ impl<'a> Stage<'a> {
             let Some((sp, sn)) = face_point(surface, target, axis, value, scale) else {
                 continue;
             };
-            if !self.in_box(sp) || self.face_of(sp) != Some(face) {
-                continue;
-            }
-            let (old_p, old_n) = (p, n);
-            self.pos[v as usize] = sp;
-            self.normal[v as usize] = sn;
-            let ok = better(self, sp)
-                && star.iter().all(|&e| {
-                    let t = self.tri[(e / 3) as usize];
-                    self.facing(t, self.corners(t))
-                        && sp.distance_squared(self.p(self.dst(e))) <= longest
-                });
-            self.pos[v as usize] = old_p;
-            self.normal[v as usize] = old_n;
-            if ok {
-                self.place(v, sp, sn);
+            if self.in_box(sp)
+                && self.face_of(sp) == Some(face)
+                && self.move_if(v, star, (sp, sn), longest, &better)
+            {
                 return true;
             }
         }
