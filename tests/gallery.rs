@@ -113,14 +113,18 @@ fn row_of(file: &str, name: &str) -> Option<&'static Row> {
 const MIN_ANGLE_DEG: f64 = 30.0;
 
 /// Meshes that stay below `MIN_ANGLE_DEG`, with what they reach. None of them is a sharp
-/// given corner: each is a triangle on a box face whose two corners on the face are border
-/// points (which never move) and whose free corner cannot move without lowering another
-/// angle, while the off-centre or the face split there is refused on trial (it would make a
-/// worse triangle). They are the quality stage's open item (docs/marcher.md).
-const SMALLEST_ANGLE: [(&str, &str, f64); 3] = [
+/// given corner, so DESIGN.md §6 does not exempt them; they are the quality stage's open
+/// item (docs/marcher.md, Known limits). Border vertices now slide along their box face
+/// (`quality.rs`, `slide`), which brought three_cylinders from 27.3° to 30.1° and
+/// patches_offset from 24.5° to 29.9°. What is left is one triangle in each of the two
+/// dist-product meshes at the face z = −1: both border corners on the face and the free
+/// corner a tenth of the step above it, obtuse (110–117°) opposite the boundary edge. No
+/// slide, smoothing or off-centre raises it without lowering a neighbour, and the fix it
+/// needs (removing the free corner, or making it a border point) changes the mesh's
+/// connectivity at the border, which the stage does not do.
+const SMALLEST_ANGLE: [(&str, &str, f64); 2] = [
     ("intersecting_patches", "patches", 26.0),
-    ("intersecting_patches", "patches_offset", 24.0),
-    ("three_cylinders", "three_cylinders", 27.0),
+    ("intersecting_patches", "patches_offset", 29.5),
 ];
 
 /// The mean radius ratio (2·r_in/r_circ) every gallery mesh keeps. DESIGN.md §6 asks for

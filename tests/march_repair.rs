@@ -1,7 +1,7 @@
 //! The quality stage (docs/marcher.md, "Quality stage"): the same input meshed with the stage
 //! off (`quality_angle = 0`) and on. The stage must keep the Euler characteristic and the
 //! boundary loops, add vertices only by insertion (never remove one: V and T grow together,
-//! T − 2V unchanged on a closed surface), never move a vertex on a box face, raise the
+//! T − 2V unchanged on a closed surface), keep every vertex on a box face on that face (it may slide along it), raise the
 //! smallest angle and the mean radius ratio, and not lower the median. The worst triangle of
 //! the raw mesh is printed with its neighbourhood (run with --nocapture), which is how the
 //! thin triangles were diagnosed.
@@ -78,10 +78,24 @@ fn compare(name: &str, mut surface: Boxed, input: &MarchInput, min_angle: f64) {
     // Face splits add vertices to the loops on the box; their number stays.
     assert_eq!(tr.boundary_loops.len(), tf.boundary_loops.len(), "{name}");
     if let Some((lo, hi)) = input.bbox {
+        // A vertex on a box face may slide along it (the face coordinate bit for bit); one on
+        // a box edge or corner stays where it is.
+        let faces = |p: DVec3| -> Vec<(usize, f64)> {
+            (0..3)
+                .flat_map(|k| [(k, lo[k]), (k, hi[k])])
+                .filter(|&(k, b)| p[k] == b)
+                .collect()
+        };
         for (p, q) in raw.vertices.iter().zip(&fixed.vertices) {
-            let on_face = |p: DVec3| (0..3).any(|k| p[k] == lo[k] || p[k] == hi[k]);
-            if on_face(*p) {
-                assert_eq!(p, q, "{name}: a vertex on the box moved");
+            let on = faces(*p);
+            match on.len() {
+                0 => {}
+                1 => assert_eq!(
+                    faces(*q),
+                    on,
+                    "{name}: a vertex left its box face: {p} → {q}"
+                ),
+                _ => assert_eq!(p, q, "{name}: a vertex on a box edge moved"),
             }
         }
     }
@@ -121,8 +135,8 @@ fn three_cylinders_keep_their_border() {
         "three cylinders δ=0.5",
         three_cylinders(2287.5587),
         &input,
-        // A triangle on a box face whose free corner cannot move (docs/marcher.md, Known
-        // limits): 27.4°.
+        // With the uniform step one box-face triangle stays at 27.4° even with border points
+        // sliding (docs/marcher.md, Known limits); the gallery's local-step mesh reaches 30°.
         27.0,
     );
 }
