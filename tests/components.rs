@@ -137,6 +137,32 @@ fn nested_min(terms: &[String]) -> String {
     }
 }
 
+/// The centred coordinates of a shape in `cell` of the 2×2×2 grid over [0, 4]³: its centre
+/// within 0.1 of the cell's, and a random order of the axes (`d(0)`, `d(1)`, `d(2)`: the
+/// shape's own x, y, z, e.g. `(y - 1.02)`).
+fn shape_axes(rng: &mut Rng, cell: usize) -> impl Fn(usize) -> String + use<> {
+    let base = DVec3::new(
+        (cell & 1) as f64,
+        ((cell >> 1) & 1) as f64,
+        (cell >> 2) as f64,
+    ) * 2.0;
+    let c = base
+        + DVec3::new(
+            rng.range(0.9, 1.1),
+            rng.range(0.9, 1.1),
+            rng.range(0.9, 1.1),
+        );
+    let axes = [["x", "y", "z"], ["y", "z", "x"], ["z", "x", "y"]][(rng.next() % 3) as usize];
+    move |k: usize| {
+        let centre = match axes[k] {
+            "x" => c.x,
+            "y" => c.y,
+            _ => c.z,
+        };
+        format!("({} - {centre})", axes[k])
+    }
+}
+
 /// A random scene of disjoint shapes, one per cell of a 2×2×2 grid over [0, 4]³.
 struct Scene {
     source: String,
@@ -159,25 +185,7 @@ fn scene(rng: &mut Rng) -> Scene {
     for &cell in &cells[..n] {
         // Each shape fits in a ball of radius 0.8 around a point at least 0.9 from the cell's
         // walls, so two shapes are at least 0.2 (twice the step) apart.
-        let base = DVec3::new(
-            (cell & 1) as f64,
-            ((cell >> 1) & 1) as f64,
-            (cell >> 2) as f64,
-        ) * 2.0;
-        let c = base
-            + DVec3::new(
-                rng.range(0.9, 1.1),
-                rng.range(0.9, 1.1),
-                rng.range(0.9, 1.1),
-            );
-        // Axis order for the torus and the ellipsoid: a random permutation of x, y, z.
-        let axes = [["x", "y", "z"], ["y", "z", "x"], ["z", "x", "y"]][(rng.next() % 3) as usize];
-        let centre = |axis: &str| match axis {
-            "x" => c.x,
-            "y" => c.y,
-            _ => c.z,
-        };
-        let d = |k: usize| format!("({} - {})", axes[k], centre(axes[k]));
+        let d = shape_axes(rng, cell);
         match rng.next() % 3 {
             0 => {
                 // Ellipsoid, semi-axes 0.25 .. 0.8.
@@ -451,25 +459,7 @@ fn thin_scene(rng: &mut Rng) -> (Scene, f64) {
     }
     let (mut terms, mut euler, mut feature) = (Vec::new(), 0, f64::INFINITY);
     for &cell in &cells[..n] {
-        let base = DVec3::new(
-            (cell & 1) as f64,
-            ((cell >> 1) & 1) as f64,
-            (cell >> 2) as f64,
-        ) * 2.0;
-        let c = base
-            + DVec3::splat(1.0)
-            + DVec3::new(
-                rng.range(-0.1, 0.1),
-                rng.range(-0.1, 0.1),
-                rng.range(-0.1, 0.1),
-            );
-        let axes = [["x", "y", "z"], ["y", "z", "x"], ["z", "x", "y"]][(rng.next() % 3) as usize];
-        let centre = |axis: &str| match axis {
-            "x" => c.x,
-            "y" => c.y,
-            _ => c.z,
-        };
-        let d = |k: usize| format!("({} - {})", axes[k], centre(axes[k]));
+        let d = shape_axes(rng, cell);
         match rng.next() % 3 {
             0 => {
                 // A flat ellipsoid: semi-axes 0.3 .. 0.8 and a thickness 0.06 .. 0.2.

@@ -236,11 +236,7 @@ pub fn march_verified(
     if !(tolerance.is_finite() && tolerance > 0.0) {
         return Err(MarchError::InvalidTolerance { tolerance });
     }
-    let mut sizing = if input.uniform {
-        Sizing::uniform(step)
-    } else {
-        Sizing::new(step, tolerance, settings.sizing)
-    };
+    let mut sizing = Sizing::of_mesh(step, tolerance, input.uniform, settings.sizing);
     let mut round = 0;
     loop {
         let mut marched = marcher::run(surface, input, settings, &sizing, progress)?;

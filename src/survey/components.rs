@@ -537,11 +537,7 @@ pub fn mesh_components_beside(
     let tolerance = marching
         .tolerance
         .unwrap_or(march_settings.tolerance * step);
-    let sizing = if marching.uniform {
-        Sizing::uniform(step)
-    } else {
-        Sizing::new(step, tolerance, march_settings.sizing)
-    };
+    let sizing = Sizing::of_mesh(step, tolerance, marching.uniform, march_settings.sizing);
     let mut search = Search {
         surface,
         step,

@@ -225,11 +225,7 @@ pub fn mesh_creased(
     let tolerance = marching
         .tolerance
         .unwrap_or(march_settings.tolerance * step);
-    let sizing = if marching.uniform {
-        Sizing::uniform(step)
-    } else {
-        Sizing::new(step, tolerance, march_settings.sizing)
-    };
+    let sizing = Sizing::of_mesh(step, tolerance, marching.uniform, march_settings.sizing);
     let min_edge = march_settings.polygon_edge_min * step;
     let traced = std::mem::take(&mut t.traced);
     let mut polygons = Vec::with_capacity(traced.len());

@@ -119,6 +119,16 @@ impl Sizing {
         }
     }
 
+    /// The sizing of a mesh block: the paper's fixed step with `uniform`, else the local step
+    /// with `tolerance`.
+    pub fn of_mesh(step: f64, tolerance: f64, uniform: bool, settings: SizingSettings) -> Self {
+        if uniform {
+            Sizing::uniform(step)
+        } else {
+            Sizing::new(step, tolerance, settings)
+        }
+    }
+
     /// The paper's fixed step: h = step everywhere, nothing asked of the surface.
     pub fn uniform(step: f64) -> Self {
         Sizing {
