@@ -196,6 +196,26 @@ fn failures_say_why_and_where() {
     let mut none = NativeSurface(|p: DVec3| vg(p.length_squared() + 1.0, 2.0 * p));
     let e = march(&mut none, &MarchInput::from_point(0.3, DVec3::ONE), &st);
     assert!(matches!(e, Err(MarchError::Start { .. })), "{e:?}");
+    // Surfaces where f touches zero without changing sign (a double root): refused at the
+    // start, where the sphere of radius √2 they vanish on is, at once and not after the
+    // triangle limit (the gradient vanishes there, and with it the local step).
+    let start = DVec3::new(1.5, 0.0, 0.0);
+    let mut square = NativeSurface(|p: DVec3| {
+        let g = p.length_squared() - 2.0;
+        vg(g * g, 4.0 * g * p)
+    });
+    let mut absolute = NativeSurface(|p: DVec3| {
+        let g = p.length_squared() - 2.0;
+        vg(g.abs(), 2.0 * g.signum() * p)
+    });
+    for surface in [&mut square as &mut dyn Surface, &mut absolute] {
+        match march(surface, &MarchInput::from_point(0.3, start), &st) {
+            Err(MarchError::NoSignChange { at }) => {
+                assert!((at.length() - 2f64.sqrt()).abs() < 1e-6, "{at}")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
     // The triangle guard.
     let mut input = MarchInput::from_point(0.3, DVec3::ONE);
     input.max_triangles = Some(100);

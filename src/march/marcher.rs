@@ -330,6 +330,9 @@ impl Marcher<'_> {
         if !self.inside(sp.point) {
             return Err(MarchError::StartOutsideBox { at: sp.point });
         }
+        if !changes_sign(self.surface, &sp, self.step) {
+            return Err(MarchError::NoSignChange { at: sp.point });
+        }
         let c = self.add_point(sp, false, None);
         let hc = self.h[c.index()];
         let mut ring = Vec::with_capacity(6);
@@ -1167,4 +1170,23 @@ impl Marcher<'_> {
             self.update_angle(nn);
         }
     }
+}
+
+/// Whether f changes sign across the surface point `sp` along its normal, within a
+/// millionth to a hundredth of the step. The marcher meshes the boundary between f < 0 and
+/// f > 0; where f only touches zero (a double root: `g^2`, `abs(g)`) its gradient vanishes
+/// on the surface, the curvature from it is meaningless and the local step falls to its
+/// floor, so the march would run into the triangle limit after minutes instead of saying
+/// why at once. Distances below 64 ulps of the point are skipped (they round to it).
+fn changes_sign(surface: &mut dyn Surface, sp: &SurfacePoint, step: f64) -> bool {
+    let ulps = 64.0 * f64::EPSILON * sp.point.abs().max_element();
+    [1e-6, 1e-4, 1e-2]
+        .iter()
+        .map(|k| (k * step).max(ulps))
+        .any(|d| {
+            let above = surface.value(sp.point + d * sp.normal);
+            let below = surface.value(sp.point - d * sp.normal);
+            // A NaN or an exact zero is no evidence of a double root.
+            !(above * below > 0.0)
+        })
 }

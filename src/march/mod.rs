@@ -134,6 +134,10 @@ pub enum MarchError {
     },
     #[error("the surface point {at} of the start lies outside the box")]
     StartOutsideBox { at: DVec3 },
+    #[error(
+        "f does not change sign across the surface at {at}: it touches zero there without crossing it (a double root, as of a square or an `abs`)"
+    )]
+    NoSignChange { at: DVec3 },
     #[error("{polygon} has {len} vertices; a closed polygon needs at least 3")]
     PolygonTooShort { polygon: PolygonRole, len: usize },
     #[error(
