@@ -530,7 +530,11 @@ pub fn mesh_components_beside(
     if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
         return Err(SearchError::InvalidBox { lo, hi });
     }
-    let limit = max_triangles.unwrap_or(march_settings.max_triangles);
+    // The same default as a march in this box (what the box holds at the step), so that a
+    // block without `max_triangles` is bounded alike with or without a start point.
+    let limit = max_triangles.unwrap_or_else(|| {
+        crate::march::guard::default_limit(Some((lo, hi)), step, march_settings.max_triangles)
+    });
     // The octree's work, bounded by what the mesh may hold as well as by `max_cells`.
     let budget = cell_budget(limit).min(settings.max_cells);
     let mut walk = Walk::new(regions(lo, hi), settings.leaf * step, budget);
