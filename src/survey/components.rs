@@ -35,7 +35,7 @@
 //! converges are warnings, never silently dropped; a component the marcher cannot complete
 //! is an error, as for a start point.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 
 use glam::DVec3;
@@ -922,23 +922,36 @@ const SEED_CLOSE: f64 = 0.01;
 /// Vertices of a new component checked against the mesh so far ([`Search::duplicates`]).
 const DUPLICATE_SAMPLES: usize = 32;
 
-/// The triangles meshed so far, hashed by the cell (of side = step) of their centroid.
+/// The triangles meshed so far, hashed by the centroid in grids by size: a triangle whose
+/// longest edge is at most `step · 2^l` (and above half that) is in the grid of cells of that
+/// side. A query then looks at a few cells of each grid, each holding a few triangles, also
+/// where the local step made triangles far below the step (a thin shell at step/50 put
+/// thousands of triangles into one cell of side `step`, and the search spent minutes here).
 struct Cover {
-    cell: f64,
-    triangles: HashMap<[i64; 3], Vec<u32>>,
+    step: f64,
+    /// Per size level l: the cells (of side `step · 2^l`) and their triangles.
+    levels: BTreeMap<i32, HashMap<[i64; 3], Vec<u32>>>,
 }
+
+/// Size levels are clamped to this range (2⁻⁴⁰ to 2⁸ steps): a degenerate or huge triangle
+/// goes to an end level, where it is still found (the cells searched cover its reach).
+const COVER_LEVELS: (i32, i32) = (-40, 8);
 
 impl Cover {
     fn new(step: f64) -> Cover {
         Cover {
-            cell: step,
-            triangles: HashMap::new(),
+            step,
+            levels: BTreeMap::new(),
         }
     }
 
-    fn key(&self, p: DVec3) -> [i64; 3] {
+    fn side(&self, level: i32) -> f64 {
+        self.step * 2f64.powi(level)
+    }
+
+    fn key(side: f64, p: DVec3) -> [i64; 3] {
         // Saturating float-to-int casts: a point far out stays in an edge cell.
-        (p / self.cell).floor().to_array().map(|c| c as i64)
+        (p / side).floor().to_array().map(|c| c as i64)
     }
 
     /// Appends `part` to `mesh` and hashes its triangles.
@@ -950,41 +963,71 @@ impl Cover {
         mesh.triangles
             .extend(part.triangles.iter().map(|t| t.map(|v| v + offset)));
         for (t, tri) in mesh.triangles.iter().enumerate().skip(first as usize) {
-            let c = tri
-                .iter()
-                .map(|&v| mesh.vertices[v as usize])
-                .sum::<DVec3>()
-                / 3.0;
-            self.triangles
-                .entry(self.key(c))
+            let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
+            let edge = a.distance(b).max(b.distance(c)).max(c.distance(a));
+            let level =
+                ((edge / self.step).log2().ceil() as i32).clamp(COVER_LEVELS.0, COVER_LEVELS.1);
+            let side = self.side(level);
+            self.levels
+                .entry(level)
+                .or_default()
+                .entry(Cover::key(side, (a + b + c) / 3.0))
                 .or_default()
                 .push(t as u32);
         }
     }
 
-    /// Whether a vertex of `mesh` lies in the cell.
-    fn touches(&self, mesh: &Mesh, cell: Cell) -> bool {
-        let (lo, hi) = (self.key(cell.lo - self.cell), self.key(cell.hi + self.cell));
-        for k in lo[2]..=hi[2] {
-            for j in lo[1]..=hi[1] {
-                for i in lo[0]..=hi[0] {
-                    let Some(ts) = self.triangles.get(&[i, j, k]) else {
-                        continue;
-                    };
-                    let inside = |v: &u32| {
-                        let p = mesh.vertices[*v as usize];
-                        p.cmpge(cell.lo).all() && p.cmple(cell.hi).all()
-                    };
-                    if ts
-                        .iter()
-                        .any(|&t| mesh.triangles[t as usize].iter().any(inside))
-                    {
-                        return true;
+    /// Calls `found` with the triangles of every level whose centroid cell meets the box
+    /// `lo .. hi` grown by `grow(side)` (in model units), until it returns true. A level's
+    /// cells are looked up one by one, or its occupied cells scanned where that is fewer.
+    fn any_near(
+        &self,
+        lo: DVec3,
+        hi: DVec3,
+        grow: impl Fn(f64) -> f64,
+        mut found: impl FnMut(&[u32]) -> bool,
+    ) -> bool {
+        for (&level, cells) in &self.levels {
+            let side = self.side(level);
+            let g = DVec3::splat(grow(side));
+            let (a, b) = (Cover::key(side, lo - g), Cover::key(side, hi + g));
+            let span = (0..3).fold(1.0, |n, i| n * ((b[i] - a[i]) as f64 + 1.0));
+            let inside = |k: &[i64; 3]| (0..3).all(|i| a[i] <= k[i] && k[i] <= b[i]);
+            if span > cells.len() as f64 {
+                if cells.iter().any(|(k, ts)| inside(k) && found(ts)) {
+                    return true;
+                }
+                continue;
+            }
+            for k in a[2]..=b[2] {
+                for j in a[1]..=b[1] {
+                    for i in a[0]..=b[0] {
+                        if cells.get(&[i, j, k]).is_some_and(|ts| found(ts)) {
+                            return true;
+                        }
                     }
                 }
             }
         }
         false
+    }
+
+    /// Whether a vertex of `mesh` lies in the cell.
+    fn touches(&self, mesh: &Mesh, cell: Cell) -> bool {
+        let inside = |v: &u32| {
+            let p = mesh.vertices[*v as usize];
+            p.cmpge(cell.lo).all() && p.cmple(cell.hi).all()
+        };
+        // A vertex is at most the longest edge (at most the level's side) from the centroid.
+        self.any_near(
+            cell.lo,
+            cell.hi,
+            |side| side,
+            |ts| {
+                ts.iter()
+                    .any(|&t| mesh.triangles[t as usize].iter().any(inside))
+            },
+        )
     }
 
     /// Whether a triangle of `mesh` lies within `factor · max(h, its longest edge)` of `p`
@@ -994,34 +1037,21 @@ impl Cover {
     /// pieces meshed up to it, and another sheet is farther from a triangle than its edges
     /// (the marcher's thickness bound keeps it 2.5 edges away).
     fn covered(&self, mesh: &Mesh, p: DVec3, normal: DVec3, factor: f64, h: f64, cos: f64) -> bool {
-        let [i, j, k] = self.key(p);
-        // A triangle within reach has its centroid within the reach + its circumradius
-        // (about 0.7 of a step for the marcher's longest edges, 1.2 steps) of p.
-        let farthest = factor * h.max(1.2 * self.cell);
-        let r = (farthest / self.cell + 0.7).ceil() as i64;
-        for dk in -r..=r {
-            for dj in -r..=r {
-                for di in -r..=r {
-                    let Some(ts) = self.triangles.get(&[i + di, j + dj, k + dk]) else {
-                        continue;
-                    };
-                    for &t in ts {
-                        let [a, b, c] =
-                            mesh.triangles[t as usize].map(|v| mesh.vertices[v as usize]);
-                        let n = (b - a).cross(c - a).normalize_or_zero();
-                        if n.dot(normal) <= cos {
-                            continue;
-                        }
-                        let edge = a.distance(b).max(b.distance(c)).max(c.distance(a));
-                        let reach = factor * h.max(edge);
-                        if (closest_on_triangle(p, a, b, c) - p).length() < reach {
-                            return true;
-                        }
-                    }
+        // A triangle of a level (longest edge at most its side) within reach has its
+        // centroid within the reach + its longest edge of p.
+        let grow = |side: f64| factor * h.max(side) + side;
+        self.any_near(p, p, grow, |ts| {
+            ts.iter().any(|&t| {
+                let [a, b, c] = mesh.triangles[t as usize].map(|v| mesh.vertices[v as usize]);
+                let n = (b - a).cross(c - a).normalize_or_zero();
+                if n.dot(normal) <= cos {
+                    return false;
                 }
-            }
-        }
-        false
+                let edge = a.distance(b).max(b.distance(c)).max(c.distance(a));
+                let reach = factor * h.max(edge);
+                (closest_on_triangle(p, a, b, c) - p).length() < reach
+            })
+        })
     }
 }
 
