@@ -531,8 +531,17 @@ fn mesh_block(
                 tolerance: def.tolerance,
                 uniform: def.uniform,
             };
-            let found = components::mesh_components(
+            // Each component's march on a fresh oracle built on its thread.
+            let engine = builder.engine();
+            let fork = || {
+                Builder::new(program, engine)
+                    .surface(&def.surface, def.step)
+                    .ok()
+                    .map(|s| Box::new(s) as Box<dyn crate::surface::Surface>)
+            };
+            let found = components::mesh_components_forked(
                 &mut surface,
+                &fork,
                 marching,
                 bbox,
                 &settings,
