@@ -14,7 +14,17 @@ mod common;
 
 use std::path::Path;
 
+use common::build::{build, checked};
 use common::cli::{scratch, surfc};
+use common::rng::Rng;
+use glam::DVec3;
+use surfc::march::MarchSettings;
+use surfc::mesh::Mesh;
+use surfc::mesh::topology::topology;
+use surfc::surface::Surface;
+use surfc::survey::components::{
+    Marching, SearchSettings, mesh_components, mesh_components_forked,
+};
 
 const THREADS: [&str; 3] = ["1", "2", "8"];
 
@@ -146,11 +156,115 @@ fn components_marched_at_once_are_the_same_bytes_for_any_thread_count() {
         .iter()
         .map(|m| {
             let n = |k: &str| m[k].as_i64().unwrap_or(-1);
-            (n("components"), n("euler_characteristic"), n("boundary_edges"))
+            (
+                n("components"),
+                n("euler_characteristic"),
+                n("boundary_edges"),
+            )
         })
         .collect();
     assert_eq!(facts, vec![(6, 8, 0), (3, 4, 0)], "{stdout}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A random scene of 2–8 disjoint balls and tori, one per cell of a 2×2×2 grid over
+/// [0, 4]³, as one product (no creases: the component search proper), with its component
+/// count and Euler characteristic.
+fn product_scene(rng: &mut Rng) -> (String, usize, i64) {
+    let n = 2 + (rng.next() % 7) as usize;
+    let mut cells: Vec<usize> = (0..8).collect();
+    for i in (1..8).rev() {
+        cells.swap(i, (rng.next() % (i as u64 + 1)) as usize);
+    }
+    let (mut terms, mut euler) = (Vec::new(), 0);
+    for &cell in &cells[..n] {
+        let c = DVec3::new(
+            (cell & 1) as f64,
+            ((cell >> 1) & 1) as f64,
+            (cell >> 2) as f64,
+        ) * 2.0
+            + DVec3::new(
+                rng.range(0.9, 1.1),
+                rng.range(0.9, 1.1),
+                rng.range(0.9, 1.1),
+            );
+        let (a, b, d) = (
+            format!("(x - {})", c.x),
+            format!("(y - {})", c.y),
+            format!("(z - {})", c.z),
+        );
+        if rng.next() % 2 == 0 {
+            let r = rng.range(0.3, 0.8);
+            terms.push(format!("({a}^2 + {b}^2 + {d}^2 - {})", r * r));
+            euler += 2;
+        } else {
+            // Tube radius at least 0.15 (three steps across), R + r ≤ 0.8.
+            let r = rng.range(0.15, 0.25);
+            let big = rng.range(r + 0.2, 0.8 - r);
+            terms.push(format!(
+                "((sqrt({a}^2 + {b}^2) - {big})^2 + {d}^2 - {})",
+                r * r
+            ));
+        }
+    }
+    let source = format!(
+        "surface scene = {};\nmesh scene = scene {{ step: 0.1; box: (-0.1, -0.1, -0.1) .. (4.1, 4.1, 4.1); }}\n",
+        terms.join(" * ")
+    );
+    (source, n, euler)
+}
+
+/// The component search with its marches on the pool is the search one after another:
+/// random scenes of several components give the same mesh, bit for bit, as
+/// `mesh_components` on one oracle, on pools of 1, 2 and 4 threads; and the mesh has the
+/// scene's components and Euler characteristic. `THREADS_SCENES` sets the number of scenes
+/// (default 6).
+#[test]
+fn components_on_the_pool_are_the_search_one_after_another() {
+    let cases: usize = std::env::var("THREADS_SCENES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(6);
+    let mut rng = Rng(0x7EAD_5EED_2026_1130);
+    let bits = |m: &Mesh| -> Vec<u64> {
+        m.vertices
+            .iter()
+            .chain(&m.normals)
+            .flat_map(|v| v.to_array().map(f64::to_bits))
+            .chain(m.triangles.iter().flatten().map(|&i| u64::from(i)))
+            .collect()
+    };
+    for case in 0..cases {
+        let (source, components, euler) = product_scene(&mut rng);
+        let program = checked(&source);
+        let def = &program.meshes[0];
+        let bbox = def.bbox.expect("a box");
+        let marching = Marching::step(def.step);
+        let (ms, ss) = (MarchSettings::default(), SearchSettings::default());
+        let fresh = || build(&program, &def.surface, def.step).expect("compiles");
+        let one = mesh_components(&mut fresh(), marching, bbox, &ms, &ss).expect("meshes");
+        let topo = topology(&one.mesh);
+        assert_eq!(
+            (one.components, topo.components, topo.euler_characteristic),
+            (components, components, euler),
+            "case {case}\n{source}"
+        );
+        assert!(topo.boundary_edges.is_empty(), "case {case}\n{source}");
+        let fork = || Some(Box::new(fresh()) as Box<dyn Surface>);
+        for threads in [1, 2, 4] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a pool");
+            let forked = pool
+                .install(|| mesh_components_forked(&mut fresh(), &fork, marching, bbox, &ms, &ss))
+                .expect("meshes");
+            assert!(
+                bits(&forked.mesh) == bits(&one.mesh) && forked.seeds == one.seeds,
+                "case {case}, {threads} threads: another mesh than one after another\n{source}"
+            );
+        }
+    }
 }
 
 #[test]

@@ -62,8 +62,11 @@ impl Clusters {
             .iter()
             .map(|c| clusters.key(c.centre()))
             .collect();
-        let index: HashMap<[i64; 3], u32> =
-            keys.iter().enumerate().map(|(i, k)| (*k, i as u32)).collect();
+        let index: HashMap<[i64; 3], u32> = keys
+            .iter()
+            .enumerate()
+            .map(|(i, k)| (*k, i as u32))
+            .collect();
         let mut parent: Vec<u32> = (0..keys.len() as u32).collect();
         for (i, k) in keys.iter().enumerate() {
             for d in NEIGHBOURS {
@@ -202,9 +205,8 @@ mod tests {
             let near = |c: DVec3| (c.clamp(lo, hi) - c).length();
             let far = |c: DVec3| (c - lo).abs().max((hi - c).abs()).length();
             let [a, b] = CENTRES;
-            self.bounded.then(|| {
-                Interval::new(near(a).min(near(b)) - 0.5, far(a).min(far(b)) - 0.5)
-            })
+            self.bounded
+                .then(|| Interval::new(near(a).min(near(b)) - 0.5, far(a).min(far(b)) - 0.5))
         }
     }
 
@@ -230,7 +232,10 @@ mod tests {
         let bbox = (DVec3::splat(-3.0), DVec3::splat(3.0));
         // Without an interval bound every cell is kept: one cluster, nothing ahead.
         let loose = Clusters::new(&mut TwoBalls { bounded: false }, bbox, 0.1).expect("cells");
-        let seeds = [At(DVec3::new(2.5, 0.0, 0.0)), At(DVec3::new(-1.5, 0.0, 0.0))];
+        let seeds = [
+            At(DVec3::new(2.5, 0.0, 0.0)),
+            At(DVec3::new(-1.5, 0.0, 0.0)),
+        ];
         assert!(loose.beside(&seeds, 0, &[], 4, |_| false).is_empty());
         // Bounded: two clusters, so the second seed goes beside the first, and not when
         // the first's cluster is busy with it already or it is passed over.

@@ -515,6 +515,7 @@ pub fn mesh_components(
 ) -> Result<Components, SearchError> {
     mesh_components_beside(
         surface,
+        None,
         marching,
         (lo, hi),
         march_settings,
@@ -553,9 +554,11 @@ pub fn mesh_components_forked(
 
 /// [`mesh_components`] around a mesh made already (`existing`, the smooth pieces of a surface
 /// with creases): seeds it covers start nothing. The result's mesh begins with `existing`;
-/// its component count and seeds are those of the new components only.
+/// its component count and seeds are those of the new components only. With `fork`, the
+/// marches run as [`mesh_components_forked`] says.
 pub fn mesh_components_beside(
     surface: &mut dyn Surface,
+    fork: Option<&Fork<'_>>,
     marching: Marching,
     bbox: (DVec3, DVec3),
     march_settings: &MarchSettings,
@@ -564,7 +567,7 @@ pub fn mesh_components_beside(
 ) -> Result<Components, SearchError> {
     search_components(
         surface,
-        None,
+        fork,
         marching,
         bbox,
         march_settings,
@@ -1003,9 +1006,9 @@ impl Search<'_> {
                     let mut batch = vec![i];
                     if let Some(clusters) = clusters {
                         let busy: Vec<usize> = ready.keys().copied().collect();
-                        batch.extend(clusters.beside(seeds, i, &busy, threads - 1, |s| {
-                            self.passed_over(s)
-                        }));
+                        batch.extend(
+                            clusters.beside(seeds, i, &busy, threads - 1, |s| self.passed_over(s)),
+                        );
                     }
                     let mut marched = self.march_on_forks(&batch, seeds, fork, limit);
                     let first = marched.remove(0);
