@@ -158,6 +158,8 @@ struct Traced {
 /// Meshes `creased` (f itself is `whole`, with its interval bound) inside the box as the
 /// module documentation says. With `fork` (fresh oracles of f), the smooth components are
 /// marched on the rayon pool as `components::mesh_components_forked` says.
+// The oracles, the marching, the box and three settings structs: each a caller's choice.
+#[allow(clippy::too_many_arguments)]
 pub fn mesh_creased(
     creased: &mut Creased,
     whole: &mut dyn Surface,
