@@ -122,9 +122,11 @@ fn a_fine_sphere_is_the_same_bytes_for_any_thread_count() {
 }
 
 /// Four balls and two tori in a box, one product (no creases): six components, meshed by
-/// the component search with several marches at once (`survey::ahead`); and the same
-/// shapes through `offset` (a `dist` surface, whose oracle remembers its last foot point:
-/// each march starts on a fresh one, so the marches run ahead give the same bits).
+/// the component search with several marches at once (`survey::ahead`); two balls and a
+/// torus through `offset` (a `dist` surface, whose oracle remembers its last foot point:
+/// each march starts on a fresh one, so the marches run ahead give the same bits); and three
+/// balls and a torus as a `union` (the crease search, whose smooth components are marched
+/// the same way).
 const SCENE: &str = "
 fn ball(cx, cy, cz, r) = (x - cx)^2 + (y - cy)^2 + (z - cz)^2 - r^2;
 fn ring(r, a) = (sqrt(x^2 + y^2) - r)^2 + z^2 - a^2;
@@ -134,6 +136,8 @@ surface s = ball(2, 0, 0, 0.9) * ball(-2, 1, 0, 0.7) * ball(-2.2, -0.5, -2.5, 0.
 mesh scene = s { step: STEP; box: (-4, -4, -4) .. (4, 4, 4); }
 surface u = ball(1.8, 0, 0, 0.5) * ball(-1.8, 0, 0, 0.5) * ring(0.6, 0.15);
 mesh shells = offset(u, 0.05) { step: 0.1; box: (-2.5, -2.5, -2.5) .. (2.5, 2.5, 2.5); }
+surface joined = union(ball(1.8, 0, 0, 0.5), ball(-1.8, 0, 0, 0.4), ball(0, 1.8, 0, 0.6), ring(0.6, 0.15));
+mesh joined = joined { step: 0.08; box: (-2.5, -2.5, -2.5) .. (2.5, 2.5, 2.5); }
 ";
 
 #[test]
@@ -143,9 +147,9 @@ fn components_marched_at_once_are_the_same_bytes_for_any_thread_count() {
     let file = dir.join("scene.surf");
     std::fs::write(&file, SCENE.replace("STEP", &step)).expect("the scene file");
     assert!(same_bytes(&file, &dir, &["obj", "glb"]) > 0);
-    // What was meshed: every component, each closed, in both blocks. The scene's four balls
+    // What was meshed: every component, each closed, in every block. The scene's four balls
     // (χ = 2 each) and two tori (χ = 0); `shells` offsets two balls and a torus outwards by
-    // less than their gaps.
+    // less than their gaps; `joined` is three balls and a torus, apart.
     let file = file.to_str().expect("a UTF-8 path");
     let run = surfc(&["mesh", file, "-o", "s.obj", "--json", "-q"], &dir);
     assert_eq!(run.code, 0, "{}", run.stderr);
@@ -163,7 +167,7 @@ fn components_marched_at_once_are_the_same_bytes_for_any_thread_count() {
             )
         })
         .collect();
-    assert_eq!(facts, vec![(6, 8, 0), (3, 4, 0)], "{stdout}");
+    assert_eq!(facts, vec![(6, 8, 0), (3, 4, 0), (4, 6, 0)], "{stdout}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -173,9 +177,7 @@ fn components_marched_at_once_are_the_same_bytes_for_any_thread_count() {
 fn product_scene(rng: &mut Rng) -> (String, usize, i64) {
     let n = 2 + (rng.next() % 7) as usize;
     let mut cells: Vec<usize> = (0..8).collect();
-    for i in (1..8).rev() {
-        cells.swap(i, (rng.next() % (i as u64 + 1)) as usize);
-    }
+    rng.shuffle(&mut cells);
     let (mut terms, mut euler) = (Vec::new(), 0);
     for &cell in &cells[..n] {
         let c = DVec3::new(
