@@ -20,9 +20,10 @@ use crate::surface::Surface;
 
 /// Cells per side of the box at most: the clusters cost a few thousand bounds, not a
 /// second search at the step.
-const CELLS_PER_SIDE: f64 = 48.0;
+const CELLS_PER_SIDE: f64 = 24.0;
 
-/// The clusters are given up (nothing is marched ahead) past this many cells bounded.
+/// The clusters are given up (nothing is marched ahead) past this many cells bounded, or
+/// past the budget the caller gives.
 const MAX_CELLS: usize = 200_000;
 
 /// Leaves no smaller than this many steps.
@@ -40,10 +41,15 @@ pub struct Clusters {
 impl Clusters {
     /// The clusters of `surface` in `lo .. hi`, at leaves of about the box's longest side /
     /// `CELLS_PER_SIDE` (at least `MIN_LEAF_STEPS` steps). None when the octree grew past
-    /// `MAX_CELLS` or gave no cells.
-    pub fn new(surface: &mut dyn Surface, (lo, hi): (DVec3, DVec3), step: f64) -> Option<Self> {
+    /// `budget` cells (and `MAX_CELLS`) or gave no cells.
+    pub fn new(
+        surface: &mut dyn Surface,
+        (lo, hi): (DVec3, DVec3),
+        step: f64,
+        budget: usize,
+    ) -> Option<Self> {
         let leaf = ((hi - lo).max_element() / CELLS_PER_SIDE).max(MIN_LEAF_STEPS * step);
-        let found = surface_cells(surface, lo, hi, leaf, MAX_CELLS);
+        let found = surface_cells(surface, lo, hi, leaf, budget.min(MAX_CELLS));
         if found.truncated {
             return None;
         }
@@ -231,7 +237,8 @@ mod tests {
     fn seeds_on_separate_balls_are_marched_beside_each_other() {
         let bbox = (DVec3::splat(-3.0), DVec3::splat(3.0));
         // Without an interval bound every cell is kept: one cluster, nothing ahead.
-        let loose = Clusters::new(&mut TwoBalls { bounded: false }, bbox, 0.1).expect("cells");
+        let loose =
+            Clusters::new(&mut TwoBalls { bounded: false }, bbox, 0.1, MAX_CELLS).expect("cells");
         let seeds = [
             At(DVec3::new(2.5, 0.0, 0.0)),
             At(DVec3::new(-1.5, 0.0, 0.0)),
@@ -239,12 +246,15 @@ mod tests {
         assert!(loose.beside(&seeds, 0, &[], 4, |_| false).is_empty());
         // Bounded: two clusters, so the second seed goes beside the first, and not when
         // the first's cluster is busy with it already or it is passed over.
-        let c = Clusters::new(&mut TwoBalls { bounded: true }, bbox, 0.1).expect("cells");
+        let c =
+            Clusters::new(&mut TwoBalls { bounded: true }, bbox, 0.1, MAX_CELLS).expect("cells");
         assert_ne!(c.of(seeds[0].0), c.of(seeds[1].0));
         assert_eq!(c.beside(&seeds, 0, &[], 4, |_| false), vec![1]);
         assert!(c.beside(&seeds, 0, &[1], 4, |_| false).is_empty());
         assert!(c.beside(&seeds, 0, &[], 4, |_| true).is_empty());
         assert!(c.beside(&seeds, 0, &[], 0, |_| false).is_empty());
+        // Past its budget, nothing is marched ahead.
+        assert!(Clusters::new(&mut TwoBalls { bounded: true }, bbox, 0.1, 10).is_none());
         // Two seeds on one ball: one cluster.
         let same = [At(DVec3::new(2.5, 0.0, 0.0)), At(DVec3::new(1.5, 0.0, 0.0))];
         assert!(c.beside(&same, 0, &[], 4, |_| false).is_empty());

@@ -626,9 +626,10 @@ fn search_components(
     // step well below the leaf (a thin tube, a small ball, a narrow gap: a second component
     // in the cell gets cells and seeds of its own at about that size).
     let floor = search.sizing.floor();
-    // With `fork`, the seeds away from the faces wait until the octree is walked, and are
-    // then marched together (the walk does not depend on the marches).
-    let mut away: Vec<Seed> = Vec::new();
+    // With `fork`, the seeds away from the faces go into a queue that is marched
+    // `LOOKAHEAD` seeds behind the walk (the walk does not depend on the marches), so that
+    // seeds of other components are known when a march starts.
+    let mut queue = fork.map(Queue::new);
     let mut near_faces: Vec<Seed> = Vec::new();
     let mut unseeded: Vec<Cell> = Vec::new();
     let mut refined = 0_usize;
@@ -661,8 +662,12 @@ fn search_components(
                     }
                     if !search.away_from_faces(seed.sp.point) {
                         near_faces.push(seed);
-                    } else if fork.is_some() {
-                        away.push(seed);
+                    } else if let Some(queue) = queue.as_mut() {
+                        queue.seeds.push(seed);
+                        queue.cells = walk.visited;
+                        while queue.seeds.len() - queue.next > LOOKAHEAD {
+                            search.next_of(queue)?;
+                        }
                     } else {
                         search.try_seed(&seed)?;
                     }
@@ -676,16 +681,9 @@ fn search_components(
             refined += 1;
         }
     }
-    let clusters = match fork {
-        Some(fork) if rayon::current_num_threads() > 1 => {
-            // On a fresh oracle: the search's own must see the same evaluations for any
-            // number of threads (the warm start of `dist`).
-            fork().and_then(|mut s| ahead::Clusters::new(&mut *s, (lo, hi), step))
-        }
-        _ => None,
-    };
-    if let Some(fork) = fork {
-        search.seed_ahead(&away, fork, clusters.as_ref())?;
+    if let Some(queue) = queue.as_mut() {
+        queue.cells = walk.visited;
+        search.drain(queue)?;
     }
     if trace() {
         eprintln!(
@@ -707,8 +705,11 @@ fn search_components(
             },
         );
     }
-    match fork {
-        Some(fork) => search.seed_ahead(&near_faces, fork, clusters.as_ref())?,
+    match queue.as_mut() {
+        Some(queue) => {
+            queue.seeds.extend(near_faces);
+            search.drain(queue)?;
+        }
         None => {
             for seed in &near_faces {
                 search.try_seed(seed)?;
@@ -971,71 +972,116 @@ impl Search<'_> {
         self.out.triangles.push(mesh.triangles.len());
     }
 
-    /// [`Search::try_seed`] over `seeds` in order, each march on a fresh oracle from `fork`,
-    /// several at once on the rayon pool: where a seed needs a march, the later seeds that
-    /// lie in other clusters of the surface's cells (`ahead::Clusters`: surely another
-    /// component, so not covered by this one) and that nothing covers yet are marched beside
-    /// it, and their meshes wait for their turn. At its turn a seed is screened again as one
-    /// thread would screen it; a mesh marched ahead is taken only if its march stayed within
-    /// the triangle limit left at that turn (then it is the mesh that limit gives), else the
-    /// seed is marched again with that limit. So the result is what marching the seeds one
-    /// after another on fresh oracles gives, whatever the threads.
-    fn seed_ahead(
-        &mut self,
-        seeds: &[Seed],
-        fork: &Fork<'_>,
-        clusters: Option<&ahead::Clusters>,
-    ) -> Result<(), SearchError> {
-        let threads = rayon::current_num_threads();
-        // For the trace: marches run ahead, and those of them taken.
-        let (mut ahead, mut used) = (0_usize, 0_usize);
-        let mut ready: BTreeMap<usize, Option<Result<march::Marched, MarchError>>> =
-            BTreeMap::new();
-        for (i, seed) in seeds.iter().enumerate() {
-            if !self.screen(seed) {
-                ready.remove(&i);
-                continue;
+    /// [`Search::try_seed`] for the next seed of `queue`, its march on a fresh oracle from
+    /// the queue's fork, several at once on the rayon pool: where a seed needs a march, the
+    /// later seeds known that lie in other clusters of the surface's cells (`ahead::Clusters`:
+    /// surely another component, so not covered by this one) and that nothing covers yet are
+    /// marched beside it, and their meshes wait for their turn. At its turn a seed is
+    /// screened again as one thread would screen it; a mesh marched ahead is taken as it is
+    /// if its march had the triangle limit left at that turn, or stayed within it (then it is
+    /// the mesh that limit gives), else the seed is marched again with that limit. So the
+    /// result is what marching the seeds one after another on fresh oracles gives, whatever
+    /// the threads.
+    fn next_of(&mut self, q: &mut Queue<'_>) -> Result<(), SearchError> {
+        let i = q.next;
+        let Some(seed) = q.seeds.get(i).copied() else {
+            return Ok(());
+        };
+        q.next += 1;
+        if !self.screen(&seed) {
+            q.ready.remove(&i);
+            return Ok(());
+        }
+        let limit = self.limit.max(1);
+        let (used_limit, early) = match q.ready.remove(&i) {
+            Some(early) => {
+                q.used += 1;
+                early
             }
-            let limit = self.limit.max(1);
-            let early = match ready.remove(&i) {
-                Some(early) => {
-                    used += 1;
-                    early
-                }
-                None => {
-                    let mut batch = vec![i];
-                    if let Some(clusters) = clusters {
-                        let busy: Vec<usize> = ready.keys().copied().collect();
+            None => {
+                let mut batch = vec![i];
+                let threads = rayon::current_num_threads();
+                if threads > 1 && q.seeds[i + 1..].iter().any(|s| !self.passed_over(s)) {
+                    // The clusters never cost more than twice the cells of the search's own
+                    // walk so far (on a `dist` surface each is a foot point): tried again
+                    // when the walk has bounded twice as many as at the last try.
+                    let budget = (2 * q.cells).max(MIN_CLUSTER_CELLS);
+                    if q.clusters.is_none() && budget >= 2 * q.tried {
+                        q.tried = budget;
+                        let started = std::time::Instant::now();
+                        // On a fresh oracle: the search's own must see the same evaluations
+                        // for any number of threads (the warm start of `dist`).
+                        q.clusters = (q.fork)().and_then(|mut s| {
+                            ahead::Clusters::new(&mut *s, self.bbox, self.step, budget)
+                        });
+                        if trace() {
+                            eprintln!(
+                                "components: clusters of the surface's cells (at most {budget}) {} in {:.3} s",
+                                if q.clusters.is_some() {
+                                    "found"
+                                } else {
+                                    "given up"
+                                },
+                                started.elapsed().as_secs_f64()
+                            );
+                        }
+                    }
+                    if let Some(clusters) = &q.clusters {
+                        let busy: Vec<usize> = q.ready.keys().copied().collect();
                         batch.extend(
-                            clusters.beside(seeds, i, &busy, threads - 1, |s| self.passed_over(s)),
+                            clusters
+                                .beside(&q.seeds, i, &busy, threads - 1, |s| self.passed_over(s)),
                         );
                     }
-                    let mut marched = self.march_on_forks(&batch, seeds, fork, limit);
-                    let first = marched.remove(0);
-                    ahead += batch.len() - 1;
-                    ready.extend(batch[1..].iter().copied().zip(marched));
-                    first
                 }
-            };
-            let marched = match early {
-                Some(Ok(m)) if m.peak_triangles <= limit => m,
-                // Failed, or past this turn's limit: as one thread would march it.
-                _ => {
-                    let mut surface = fork().ok_or(SearchError::Fork)?;
-                    let input = self.march_input(seed.sp.point, limit);
-                    march::march_verified(&mut *surface, &input, self.march_settings, None)
-                        .map_err(|source| SearchError::March {
-                            seed: seed.sp.point,
-                            source,
-                        })?
-                }
-            };
-            self.accept(seed.sp.point, marched);
+                let mut marched = self.march_on_forks(&batch, &q.seeds, q.fork, limit);
+                let first = marched.remove(0);
+                q.ahead += batch.len() - 1;
+                q.ready.extend(
+                    batch[1..]
+                        .iter()
+                        .map(|&j| (j, limit))
+                        .zip(marched)
+                        .map(|((j, l), m)| (j, (l, m))),
+                );
+                (limit, first)
+            }
+        };
+        let marched = match early {
+            Some(Ok(m)) if used_limit == limit || m.peak_triangles <= limit => m,
+            Some(Err(source)) if used_limit == limit => {
+                return Err(SearchError::March {
+                    seed: seed.sp.point,
+                    source,
+                });
+            }
+            // Without an oracle, failed or past this turn's limit: as one thread marches it.
+            _ => {
+                let mut surface = (q.fork)().ok_or(SearchError::Fork)?;
+                let input = self.march_input(seed.sp.point, limit);
+                march::march_verified(&mut *surface, &input, self.march_settings, None).map_err(
+                    |source| SearchError::March {
+                        seed: seed.sp.point,
+                        source,
+                    },
+                )?
+            }
+        };
+        self.accept(seed.sp.point, marched);
+        Ok(())
+    }
+
+    /// [`Search::next_of`] until `queue` is empty.
+    fn drain(&mut self, q: &mut Queue<'_>) -> Result<(), SearchError> {
+        while q.next < q.seeds.len() {
+            self.next_of(q)?;
         }
         if trace() {
             eprintln!(
-                "components: {} seeds, {ahead} marches ahead of their turn, {used} of them taken",
-                seeds.len()
+                "components: {} seeds, {} marches ahead of their turn, {} of them taken",
+                q.seeds.len(),
+                q.ahead,
+                q.used
             );
         }
         Ok(())
@@ -1106,6 +1152,49 @@ impl Search<'_> {
         })
     }
 }
+
+/// The seeds of a search with `fork`, marched in order (`Search::next_of`).
+struct Queue<'f> {
+    fork: &'f Fork<'f>,
+    seeds: Vec<Seed>,
+    /// The next seed to screen.
+    next: usize,
+    /// Marches run ahead of their turn, by seed, with the triangle limit they had.
+    ready: BTreeMap<usize, (u64, Option<Result<march::Marched, MarchError>>)>,
+    /// The clusters of the surface's cells, once a march could run beside another.
+    clusters: Option<ahead::Clusters>,
+    /// The cell budget of the last try at the clusters (0: not tried).
+    tried: usize,
+    /// Cells the search's walk has bounded so far: the clusters' budget.
+    cells: usize,
+    /// For the trace: marches run ahead, and those of them taken.
+    ahead: usize,
+    used: usize,
+}
+
+impl<'f> Queue<'f> {
+    fn new(fork: &'f Fork<'f>) -> Self {
+        Queue {
+            fork,
+            seeds: Vec::new(),
+            next: 0,
+            ready: BTreeMap::new(),
+            clusters: None,
+            tried: 0,
+            cells: 0,
+            ahead: 0,
+            used: 0,
+        }
+    }
+}
+
+/// Seeds known beyond the one marched during the walk: enough to reach the seeds of other
+/// components (a component gives a few seeds, a large one a few dozen), few enough that a
+/// march past `max_triangles` still ends the search early in the walk.
+const LOOKAHEAD: usize = 32;
+
+/// The clusters may bound at least this many cells, however few the walk has bounded.
+const MIN_CLUSTER_CELLS: usize = 256;
 
 /// Whether `SURFC_TRACE` asks for a trace.
 fn trace() -> bool {
