@@ -178,9 +178,7 @@ fn scene(rng: &mut Rng) -> Scene {
     let n = 1 + (rng.next() % 8) as usize;
     // n distinct cells of the 2×2×2 grid, in a random order.
     let mut cells: Vec<usize> = (0..8).collect();
-    for i in (1..8).rev() {
-        cells.swap(i, (rng.next() % (i as u64 + 1)) as usize);
-    }
+    rng.shuffle(&mut cells);
     let (mut terms, mut euler) = (Vec::new(), 0);
     for &cell in &cells[..n] {
         // Each shape fits in a ball of radius 0.8 around a point at least 0.9 from the cell's
@@ -454,9 +452,7 @@ fn pieces_cut_by_the_box_are_found_from_its_faces() {
 fn thin_scene(rng: &mut Rng) -> (Scene, f64) {
     let n = 1 + (rng.next() % 4) as usize;
     let mut cells: Vec<usize> = (0..8).collect();
-    for i in (1..8).rev() {
-        cells.swap(i, (rng.next() % (i as u64 + 1)) as usize);
-    }
+    rng.shuffle(&mut cells);
     let (mut terms, mut euler, mut feature) = (Vec::new(), 0, f64::INFINITY);
     for &cell in &cells[..n] {
         let d = shape_axes(rng, cell);

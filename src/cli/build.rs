@@ -56,6 +56,11 @@ impl<'p> Builder<'p> {
         }
     }
 
+    /// The engine of every surface built.
+    pub(crate) fn engine(&self) -> Engine {
+        self.engine
+    }
+
     /// The oracle of a surface: its compiled tape, `dist(S)` children as foot-point distance
     /// surfaces over S's own compiled tape (or patch), built recursively, at most
     /// `MAX_DIST_DEPTH` deep. `scale` (the mesh step) is the length the foot-point tolerances

@@ -16,7 +16,7 @@ use crate::march::MarchSettings;
 use crate::mesh::Mesh;
 use crate::sema::program::MeshDef;
 use crate::surface::Surface;
-use crate::survey::components::{Candidates, Marching, SearchSettings, surface_cells};
+use crate::survey::components::{Candidates, Fork, Marching, SearchSettings, surface_cells};
 use crate::survey::creases::{self, CreaseError, CreaseSettings, CreasedMesh};
 use crate::survey::spine::Creased;
 
@@ -44,6 +44,7 @@ pub(super) fn creased_of(
 pub(super) fn mesh(
     creased: &mut Creased,
     whole: &mut dyn Surface,
+    fork: &Fork<'_>,
     def: &MeshDef,
     bbox: (DVec3, DVec3),
 ) -> Result<CreasedMesh, Diagnostic> {
@@ -56,6 +57,7 @@ pub(super) fn mesh(
     let mut out = creases::mesh_creased(
         creased,
         whole,
+        Some(fork),
         marching,
         bbox,
         &MarchSettings::default(),

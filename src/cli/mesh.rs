@@ -468,6 +468,15 @@ fn mesh_block(
     let mut surface = builder
         .surface(&def.surface, def.step)
         .map_err(|e| build_failed(e.into()))?;
+    // A fresh oracle of the surface for each march of the component search, built on the
+    // thread that marches (survey::components::Fork).
+    let engine = builder.engine();
+    let fork = || {
+        Builder::new(program, engine)
+            .surface(&def.surface, def.step)
+            .ok()
+            .map(|s| Box::new(s) as Box<dyn crate::surface::Surface>)
+    };
     let mut creased = creases::creased_of(builder, def).map_err(|e| match e {
         Ok(c) => build_failed(c.into()),
         Err(d) => d,
@@ -482,7 +491,7 @@ fn mesh_block(
         def.front,
         def.bounds.is_empty(),
     ) {
-        let out = creases::mesh(c, &mut surface, def, bbox)?;
+        let out = creases::mesh(c, &mut surface, &fork, def, bbox)?;
         let counts = creases::counts(&out);
         let mut meshed = finish(
             program,
@@ -531,8 +540,9 @@ fn mesh_block(
                 tolerance: def.tolerance,
                 uniform: def.uniform,
             };
-            let found = components::mesh_components(
+            let found = components::mesh_components_forked(
                 &mut surface,
+                &fork,
                 marching,
                 bbox,
                 &settings,

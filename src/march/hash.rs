@@ -1,6 +1,8 @@
 //! A spatial hash of front nodes: cubic cells four query radii wide, so that all nodes
 //! within the radius of a point are found in the (at most 8) cells its cube overlaps. Lookups only: the candidates come
-//! back in cell order and insertion order, never in a hash-map iteration order.
+//! back in cell order and insertion order, never in a hash-map iteration order. Each node
+//! carries its position and one number (the marcher's local step there), so that a query
+//! filters its candidates without looking anything up elsewhere.
 
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
@@ -31,6 +33,9 @@ impl Hasher for CellHasher {
 /// onto the same key only cost extra candidates, which callers filter by distance.
 type Cell = u64;
 
+/// A node in its cell: its id, position and number.
+type Entry = (NodeId, DVec3, f64);
+
 /// Nodes by cell.
 #[derive(Debug)]
 pub struct SpatialHash {
@@ -38,7 +43,9 @@ pub struct SpatialHash {
     /// cheap to reject (front points lie along curves, so a cell holds few of them).
     inv_cell: f64,
     radius: f64,
-    cells: HashMap<Cell, Vec<(NodeId, DVec3)>, BuildHasherDefault<CellHasher>>,
+    /// Only cells that hold nodes: the front's neighbourhood, small enough to stay in cache
+    /// (keeping emptied cells doubled the cost of a query on the fine sphere).
+    cells: HashMap<Cell, Vec<Entry>, BuildHasherDefault<CellHasher>>,
 }
 
 fn pack(x: i64, y: i64, z: i64) -> Cell {
@@ -61,9 +68,10 @@ impl SpatialHash {
         pack(c.x as i64, c.y as i64, c.z as i64)
     }
 
-    pub fn insert(&mut self, n: NodeId, p: DVec3) {
+    /// Inserts `n` at `p` with the number `h`.
+    pub fn insert(&mut self, n: NodeId, p: DVec3, h: f64) {
         let c = self.cell(p);
-        self.cells.entry(c).or_default().push((n, p));
+        self.cells.entry(c).or_default().push((n, p, h));
     }
 
     /// Removes `n` (inserted at `p`); no-op if absent.
@@ -80,8 +88,9 @@ impl SpatialHash {
         }
     }
 
-    /// Calls `f` for every node within the radius of `p` (and some a little farther).
-    pub fn for_near(&self, p: DVec3, mut f: impl FnMut(NodeId, DVec3)) {
+    /// Calls `f` with every node within the radius of `p` (and some a little farther), its
+    /// position and number.
+    pub fn for_near(&self, p: DVec3, mut f: impl FnMut(NodeId, DVec3, f64)) {
         // The cells the cube p ± radius overlaps: 1 or 2 per axis (1.5³ ≈ 3.4 on average).
         let lo = ((p - self.radius) * self.inv_cell).floor();
         let hi = ((p + self.radius) * self.inv_cell).floor();
@@ -93,8 +102,8 @@ impl SpatialHash {
             for y in lo[1]..=hi[1] {
                 for z in lo[2]..=hi[2] {
                     if let Some(v) = self.cells.get(&pack(x, y, z)) {
-                        for &(n, q) in v {
-                            f(n, q);
+                        for &(n, q, h) in v {
+                            f(n, q, h);
                         }
                     }
                 }
@@ -118,7 +127,7 @@ mod tests {
             })
             .collect();
         for (i, &p) in pts.iter().enumerate() {
-            h.insert(NodeId(i as u32), p);
+            h.insert(NodeId(i as u32), p, i as f64);
         }
         for &i in &[3usize, 50, 51, 120] {
             h.remove(NodeId(i as u32), pts[i]);
@@ -127,7 +136,10 @@ mod tests {
             let t = k as f64 * 0.29;
             let probe = DVec3::new(1.7 * t.cos(), -1.9 * (0.8 * t).sin(), 0.9 * (1.7 * t).cos());
             let mut found = Vec::new();
-            h.for_near(probe, |n, _| found.push(n.0 as usize));
+            h.for_near(probe, |n, _, number| {
+                assert_eq!(number, n.0 as f64, "the number inserted with the node");
+                found.push(n.0 as usize);
+            });
             for (i, &p) in pts.iter().enumerate() {
                 let removed = [3usize, 50, 51, 120].contains(&i);
                 if p.distance(probe) < 0.5 && !removed {

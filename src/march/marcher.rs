@@ -257,7 +257,8 @@ impl Marcher<'_> {
             let node = NodeId(i as u32);
             if !self.border[self.rings.point(node).index()] {
                 self.checkable[i] = true;
-                self.hash.insert(node, self.p(node));
+                let pi = self.rings.point(node).index();
+                self.hash.insert(node, self.pos[pi], self.h[pi]);
                 self.mark_pending(node);
             }
         }
@@ -792,12 +793,11 @@ impl Marcher<'_> {
         // Near within the larger of the two local steps: the one with the larger step would
         // jump over the other's front with its next completion.
         let ha = self.h[pa_id.index()];
-        let (near, h) = (self.s.near_distance, &self.h);
-        let rings = &self.rings;
+        let near = self.s.near_distance;
         let mut cands = std::mem::take(&mut self.scratch);
         cands.clear();
-        self.hash.for_near(pa, |b, pb| {
-            let r = near * ha.min(h[rings.point(b).index()]);
+        self.hash.for_near(pa, |b, pb, hb| {
+            let r = near * ha.min(hb);
             if pb.distance_squared(pa) < r * r {
                 cands.push((b, pb));
             }

@@ -100,6 +100,10 @@ pub struct Marched {
     pub warnings: Vec<String>,
     /// How many times the mesh was re-marched with a finer local step near failures.
     pub refinements: u32,
+    /// The most triangles the marcher made in one round (before the quality stage): what
+    /// `MarchInput::max_triangles` was held against. A march with a larger limit whose peak
+    /// stays within a smaller one made the same mesh as with the smaller limit.
+    pub peak_triangles: u64,
 }
 
 /// Which input polygon an error refers to.
@@ -242,8 +246,10 @@ pub fn march_verified(
     }
     let mut sizing = Sizing::of_mesh(step, tolerance, input.uniform, settings.sizing);
     let mut round = 0;
+    let mut peak_triangles = 0;
     loop {
         let mut marched = marcher::run(surface, input, settings, &sizing, progress)?;
+        peak_triangles = peak_triangles.max(marched.mesh.triangles.len() as u64);
         improve(surface, &mut marched, input, settings, tolerance);
         let verdict = verify::verify(surface, &marched, tolerance, step, &settings.surface_point);
         // A chord error above the tolerance may be a wrong mesh (a cap over a neck thinner
@@ -265,6 +271,7 @@ pub fn march_verified(
                 max_chord_error: verdict.max_chord_error,
                 warnings,
                 refinements: round,
+                peak_triangles,
             });
         }
         if input.uniform || round >= settings.refine_rounds {

@@ -39,12 +39,14 @@ use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
 use crate::solve::{SurfacePoint, surface_point};
 use crate::surface::Surface;
 
+use super::ahead;
 use super::jump::gradient_jump;
 use super::sizing::Sizing;
 
@@ -145,6 +147,10 @@ pub enum SearchError {
     InvalidStep { step: f64 },
     #[error("the box {lo} .. {hi} is empty or not finite")]
     InvalidBox { lo: DVec3, hi: DVec3 },
+    /// A fresh oracle of the surface for a march on another thread could not be built
+    /// (it was built once already: our bug, not the input's).
+    #[error("the surface could not be built again for a march on another thread")]
+    Fork,
     /// The marcher failed on the component found at `seed`.
     #[error("the component found at {seed}: {source}")]
     March { seed: DVec3, source: MarchError },
@@ -226,6 +232,12 @@ impl Cell {
 
     fn octants(self) -> Vec<Cell> {
         self.split(0.0)
+    }
+}
+
+impl ahead::Seeded for Seed {
+    fn point(&self) -> DVec3 {
+        self.sp.point
     }
 }
 
@@ -503,6 +515,7 @@ pub fn mesh_components(
 ) -> Result<Components, SearchError> {
     mesh_components_beside(
         surface,
+        None,
         marching,
         (lo, hi),
         march_settings,
@@ -511,11 +524,63 @@ pub fn mesh_components(
     )
 }
 
+/// Makes a fresh oracle of the surface being searched, one per march on the rayon pool's
+/// threads (an oracle is not shared between threads); None if it cannot be built.
+pub type Fork<'a> = dyn Fn() -> Option<Box<dyn Surface>> + Sync + 'a;
+
+/// [`mesh_components`] with the components marched on the rayon pool (`survey::ahead`):
+/// each march on a fresh oracle from `fork`, so a march never depends on what the oracle
+/// evaluated before (the warm start of `dist`), and the components accepted in seed order
+/// exactly as one thread would. The same mesh, bit for bit, for any number of threads; for
+/// a surface without `dist` also the same as [`mesh_components`].
+pub fn mesh_components_forked(
+    surface: &mut dyn Surface,
+    fork: &Fork<'_>,
+    marching: Marching,
+    bbox: (DVec3, DVec3),
+    march_settings: &MarchSettings,
+    settings: &SearchSettings,
+) -> Result<Components, SearchError> {
+    search_components(
+        surface,
+        Some(fork),
+        marching,
+        bbox,
+        march_settings,
+        settings,
+        &Mesh::default(),
+    )
+}
+
 /// [`mesh_components`] around a mesh made already (`existing`, the smooth pieces of a surface
 /// with creases): seeds it covers start nothing. The result's mesh begins with `existing`;
-/// its component count and seeds are those of the new components only.
+/// its component count and seeds are those of the new components only. With `fork`, the
+/// marches run as [`mesh_components_forked`] says.
 pub fn mesh_components_beside(
     surface: &mut dyn Surface,
+    fork: Option<&Fork<'_>>,
+    marching: Marching,
+    bbox: (DVec3, DVec3),
+    march_settings: &MarchSettings,
+    settings: &SearchSettings,
+    existing: &Mesh,
+) -> Result<Components, SearchError> {
+    search_components(
+        surface,
+        fork,
+        marching,
+        bbox,
+        march_settings,
+        settings,
+        existing,
+    )
+}
+
+/// The search of [`mesh_components_beside`]; with `fork`, the marches run as
+/// [`mesh_components_forked`] says, else one after another on `surface`.
+fn search_components(
+    surface: &mut dyn Surface,
+    fork: Option<&Fork<'_>>,
     marching: Marching,
     (lo, hi): (DVec3, DVec3),
     march_settings: &MarchSettings,
@@ -565,6 +630,10 @@ pub fn mesh_components_beside(
     // step well below the leaf (a thin tube, a small ball, a narrow gap: a second component
     // in the cell gets cells and seeds of its own at about that size).
     let floor = search.sizing.floor();
+    // With `fork`, the seeds away from the faces go into a queue that is marched
+    // `LOOKAHEAD` seeds behind the walk (the walk does not depend on the marches), so that
+    // seeds of other components are known when a march starts.
+    let mut queue = fork.map(Queue::new);
     let mut near_faces: Vec<Seed> = Vec::new();
     let mut unseeded: Vec<Cell> = Vec::new();
     let mut refined = 0_usize;
@@ -595,10 +664,16 @@ pub fn mesh_components_beside(
                     if thin && !search.beside_crease(&seed) {
                         finest = finest.min(seed.across);
                     }
-                    if search.away_from_faces(seed.sp.point) {
-                        search.try_seed(&seed)?;
-                    } else {
+                    if !search.away_from_faces(seed.sp.point) {
                         near_faces.push(seed);
+                    } else if let Some(queue) = queue.as_mut() {
+                        queue.seeds.push(seed);
+                        queue.cells = walk.visited;
+                        while queue.seeds.len() - queue.next > LOOKAHEAD {
+                            search.next_of(queue)?;
+                        }
+                    } else {
+                        search.try_seed(&seed)?;
                     }
                 }
                 let finer = (REFINE_LEAF * finest).max(floor);
@@ -610,7 +685,11 @@ pub fn mesh_components_beside(
             refined += 1;
         }
     }
-    if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
+    if let Some(queue) = queue.as_mut() {
+        queue.cells = walk.visited;
+        search.drain(queue)?;
+    }
+    if trace() {
         eprintln!(
             "components: {} cells bounded, {refined} leaves walked again finer, {} components",
             walk.visited, search.out.components
@@ -630,8 +709,16 @@ pub fn mesh_components_beside(
             },
         );
     }
-    for seed in &near_faces {
-        search.try_seed(seed)?;
+    match queue.as_mut() {
+        Some(queue) => {
+            queue.seeds.extend(near_faces);
+            search.drain(queue)?;
+        }
+        None => {
+            for seed in &near_faces {
+                search.try_seed(seed)?;
+            }
+        }
     }
     // A cell the marcher went through anyway is no gap.
     let Search { cover, out, .. } = &mut search;
@@ -665,7 +752,7 @@ struct Search<'a> {
 
 /// A seed with the local step there.
 #[derive(Clone, Copy, Debug)]
-struct Seed {
+pub(crate) struct Seed {
     sp: SurfacePoint,
     h: f64,
     /// The local step the thickness across the seed allows (another sheet along ±n: a
@@ -803,6 +890,40 @@ impl Search<'_> {
     /// sized by the local step at the seed: a mesh there has edges of about that length, and
     /// another sheet or component nearer than it has its own cells and seeds.
     fn try_seed(&mut self, seed: &Seed) -> Result<(), SearchError> {
+        if !self.screen(seed) {
+            return Ok(());
+        }
+        let input = self.march_input(seed.sp.point, self.limit.max(1));
+        let marched = march::march_verified(self.surface, &input, self.march_settings, None)
+            .map_err(|source| SearchError::March {
+                seed: seed.sp.point,
+                source,
+            })?;
+        self.accept(seed.sp.point, marched);
+        Ok(())
+    }
+
+    /// Whether `seed` starts a march: not covered by the mesh so far, not on a component
+    /// smaller than its local step (warned once here). Evaluates the search's oracle, so it
+    /// is called once per seed, in seed order.
+    fn screen(&mut self, seed: &Seed) -> bool {
+        if self.passed_over(seed) {
+            return false;
+        }
+        if self.is_small(seed) {
+            self.small.push(*seed);
+            self.out.warnings.push(Warning::SmallComponent {
+                at: seed.sp.point,
+                h: seed.h,
+            });
+            return false;
+        }
+        true
+    }
+
+    /// Whether the mesh so far covers `seed`, or it lies on a small component warned of
+    /// already: the part of [`Search::screen`] that does not evaluate the surface.
+    fn passed_over(&self, seed: &Seed) -> bool {
         let Seed { sp, h, .. } = seed;
         let factor = if self.away_from_faces(sp.point) {
             self.settings.covered
@@ -814,39 +935,31 @@ impl Search<'_> {
             .cover
             .covered(&self.out.mesh, sp.point, sp.normal, factor, *h, cos)
         {
-            return Ok(());
+            return true;
         }
         // On a component smaller than its local step the normals of nearby seeds point every
         // way: distance alone tells the seeds of one small component.
-        let near_small = self
-            .small
+        self.small
             .iter()
-            .any(|s| (s.sp.point - sp.point).length() < 2.0 * s.h);
-        if near_small {
-            return Ok(());
-        }
-        if self.is_small(seed) {
-            self.small.push(*seed);
-            self.out.warnings.push(Warning::SmallComponent {
-                at: sp.point,
-                h: *h,
-            });
-            return Ok(());
-        }
-        let input = MarchInput {
+            .any(|s| (s.sp.point - sp.point).length() < 2.0 * s.h)
+    }
+
+    /// The march of a component from `at` with at most `limit` triangles.
+    fn march_input(&self, at: DVec3, limit: u64) -> MarchInput {
+        MarchInput {
             step: self.step,
-            start: Start::Point(sp.point),
+            start: Start::Point(at),
             bounds: Vec::new(),
             bbox: Some(self.bbox),
-            max_triangles: Some(self.limit.max(1)),
+            max_triangles: Some(limit),
             tolerance: self.marching.tolerance,
             uniform: self.marching.uniform,
-        };
-        let marched = march::march_verified(self.surface, &input, self.march_settings, None)
-            .map_err(|source| SearchError::March {
-                seed: sp.point,
-                source,
-            })?;
+        }
+    }
+
+    /// Takes the component marched from `at` into the result, unless it is a sheet meshed
+    /// already.
+    fn accept(&mut self, at: DVec3, marched: march::Marched) {
         let mesh = marched.mesh;
         self.out.max_chord_error = self.out.max_chord_error.max(marched.max_chord_error);
         self.out.march_warnings.extend(marched.warnings);
@@ -855,13 +968,150 @@ impl Search<'_> {
             // A sheet meshed already (its seed was missed as covered where the earlier mesh
             // stops short of the box's edges): kept once.
             self.out.duplicates += 1;
-            return Ok(());
+            return;
         }
         self.cover.add(&mut self.out.mesh, &mesh);
         self.out.components += 1;
-        self.out.seeds.push(sp.point);
+        self.out.seeds.push(at);
         self.out.triangles.push(mesh.triangles.len());
+    }
+
+    /// [`Search::try_seed`] for the next seed of `queue`, its march on a fresh oracle from
+    /// the queue's fork, several at once on the rayon pool: where a seed needs a march, the
+    /// later seeds known that lie in other clusters of the surface's cells (`ahead::Clusters`:
+    /// surely another component, so not covered by this one) and that nothing covers yet are
+    /// marched beside it, and their meshes wait for their turn. At its turn a seed is
+    /// screened again as one thread would screen it; a mesh marched ahead is taken as it is
+    /// if its march had the triangle limit left at that turn, or stayed within it (then it is
+    /// the mesh that limit gives), else the seed is marched again with that limit. So the
+    /// result is what marching the seeds one after another on fresh oracles gives, whatever
+    /// the threads.
+    fn next_of(&mut self, q: &mut Queue<'_>) -> Result<(), SearchError> {
+        let i = q.next;
+        let Some(seed) = q.seeds.get(i).copied() else {
+            return Ok(());
+        };
+        q.next += 1;
+        if !self.screen(&seed) {
+            q.ready.remove(&i);
+            return Ok(());
+        }
+        let limit = self.limit.max(1);
+        let (used_limit, early) = match q.ready.remove(&i) {
+            Some(early) => {
+                q.used += 1;
+                early
+            }
+            None => {
+                let mut batch = vec![i];
+                let threads = rayon::current_num_threads();
+                if threads > 1 && q.seeds[i + 1..].iter().any(|s| !self.passed_over(s)) {
+                    // The clusters never cost more than twice the cells of the search's own
+                    // walk so far (on a `dist` surface each is a foot point): tried again
+                    // when the walk has bounded twice as many as at the last try.
+                    let budget = (2 * q.cells).max(MIN_CLUSTER_CELLS);
+                    if q.clusters.is_none() && budget >= 2 * q.tried {
+                        q.tried = budget;
+                        let started = std::time::Instant::now();
+                        // On a fresh oracle: the search's own must see the same evaluations
+                        // for any number of threads (the warm start of `dist`).
+                        q.clusters = (q.fork)().and_then(|mut s| {
+                            ahead::Clusters::new(&mut *s, self.bbox, self.step, budget)
+                        });
+                        if trace() {
+                            eprintln!(
+                                "components: clusters of the surface's cells (at most {budget}) {} in {:.3} s",
+                                if q.clusters.is_some() {
+                                    "found"
+                                } else {
+                                    "given up"
+                                },
+                                started.elapsed().as_secs_f64()
+                            );
+                        }
+                    }
+                    if let Some(clusters) = &q.clusters {
+                        let busy: Vec<usize> = q.ready.keys().copied().collect();
+                        batch.extend(
+                            clusters
+                                .beside(&q.seeds, i, &busy, threads - 1, |s| self.passed_over(s)),
+                        );
+                    }
+                }
+                let mut marched = self.march_on_forks(&batch, &q.seeds, q.fork, limit);
+                let first = marched.remove(0);
+                q.ahead += batch.len() - 1;
+                q.ready.extend(
+                    batch[1..]
+                        .iter()
+                        .map(|&j| (j, limit))
+                        .zip(marched)
+                        .map(|((j, l), m)| (j, (l, m))),
+                );
+                (limit, first)
+            }
+        };
+        let marched = match early {
+            Some(Ok(m)) if used_limit == limit || m.peak_triangles <= limit => m,
+            Some(Err(source)) if used_limit == limit => {
+                return Err(SearchError::March {
+                    seed: seed.sp.point,
+                    source,
+                });
+            }
+            // Without an oracle, failed or past this turn's limit: as one thread marches it.
+            _ => {
+                let mut surface = (q.fork)().ok_or(SearchError::Fork)?;
+                let input = self.march_input(seed.sp.point, limit);
+                march::march_verified(&mut *surface, &input, self.march_settings, None).map_err(
+                    |source| SearchError::March {
+                        seed: seed.sp.point,
+                        source,
+                    },
+                )?
+            }
+        };
+        self.accept(seed.sp.point, marched);
         Ok(())
+    }
+
+    /// [`Search::next_of`] until `queue` is empty.
+    fn drain(&mut self, q: &mut Queue<'_>) -> Result<(), SearchError> {
+        while q.next < q.seeds.len() {
+            self.next_of(q)?;
+        }
+        if trace() {
+            eprintln!(
+                "components: {} seeds, {} marches ahead of their turn, {} of them taken",
+                q.seeds.len(),
+                q.ahead,
+                q.used
+            );
+        }
+        Ok(())
+    }
+
+    /// The marches from `seeds[i]` for each i of `batch`, on the pool, each on a fresh
+    /// oracle (None where `fork` gave none), in `batch` order.
+    fn march_on_forks(
+        &self,
+        batch: &[usize],
+        seeds: &[Seed],
+        fork: &Fork<'_>,
+        limit: u64,
+    ) -> Vec<Option<Result<march::Marched, MarchError>>> {
+        let inputs: Vec<MarchInput> = batch
+            .iter()
+            .map(|&i| self.march_input(seeds[i].sp.point, limit))
+            .collect();
+        let settings = self.march_settings;
+        inputs
+            .par_iter()
+            .map(|input| {
+                let mut surface = fork()?;
+                Some(march::march_verified(&mut *surface, input, settings, None))
+            })
+            .collect()
     }
 
     /// Whether most of `part`'s vertices (a sample of up to `DUPLICATE_SAMPLES`) are covered
@@ -905,6 +1155,54 @@ impl Search<'_> {
             }
         })
     }
+}
+
+/// The seeds of a search with `fork`, marched in order (`Search::next_of`).
+struct Queue<'f> {
+    fork: &'f Fork<'f>,
+    seeds: Vec<Seed>,
+    /// The next seed to screen.
+    next: usize,
+    /// Marches run ahead of their turn, by seed, with the triangle limit they had.
+    ready: BTreeMap<usize, (u64, Option<Result<march::Marched, MarchError>>)>,
+    /// The clusters of the surface's cells, once a march could run beside another.
+    clusters: Option<ahead::Clusters>,
+    /// The cell budget of the last try at the clusters (0: not tried).
+    tried: usize,
+    /// Cells the search's walk has bounded so far: the clusters' budget.
+    cells: usize,
+    /// For the trace: marches run ahead, and those of them taken.
+    ahead: usize,
+    used: usize,
+}
+
+impl<'f> Queue<'f> {
+    fn new(fork: &'f Fork<'f>) -> Self {
+        Queue {
+            fork,
+            seeds: Vec::new(),
+            next: 0,
+            ready: BTreeMap::new(),
+            clusters: None,
+            tried: 0,
+            cells: 0,
+            ahead: 0,
+            used: 0,
+        }
+    }
+}
+
+/// Seeds known beyond the one marched during the walk: enough to reach the seeds of other
+/// components (a component gives a few seeds, a large one a few dozen), few enough that a
+/// march past `max_triangles` still ends the search early in the walk.
+const LOOKAHEAD: usize = 32;
+
+/// The clusters may bound at least this many cells, however few the walk has bounded.
+const MIN_CLUSTER_CELLS: usize = 256;
+
+/// Whether `SURFC_TRACE` asks for a trace.
+fn trace() -> bool {
+    std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0")
 }
 
 /// A kept leaf is walked again with leaves of this many local steps (at the finest of its

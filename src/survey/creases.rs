@@ -156,10 +156,14 @@ struct Traced {
 }
 
 /// Meshes `creased` (f itself is `whole`, with its interval bound) inside the box as the
-/// module documentation says.
+/// module documentation says. With `fork` (fresh oracles of f), the smooth components are
+/// marched on the rayon pool as `components::mesh_components_forked` says.
+// The oracles, the marching, the box and three settings structs: each a caller's choice.
+#[allow(clippy::too_many_arguments)]
 pub fn mesh_creased(
     creased: &mut Creased,
     whole: &mut dyn Surface,
+    fork: Option<&components::Fork<'_>>,
     marching: Marching,
     bbox: (DVec3, DVec3),
     march_settings: &MarchSettings,
@@ -295,8 +299,15 @@ pub fn mesh_creased(
         max_triangles: limit,
         ..marching
     };
-    let found =
-        components::mesh_components_beside(whole, marching, bbox, march_settings, search, &pieces)?;
+    let found = components::mesh_components_beside(
+        whole,
+        fork,
+        marching,
+        bbox,
+        march_settings,
+        search,
+        &pieces,
+    )?;
     check_smooth(
         t.c,
         &found.mesh,

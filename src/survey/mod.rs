@@ -4,6 +4,7 @@
 //! step), and where it is not smooth (creases). Each is a module of its own; the marcher takes
 //! their answers as inputs.
 
+pub mod ahead;
 pub mod components;
 pub mod creases;
 pub mod jump;

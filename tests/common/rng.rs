@@ -22,6 +22,13 @@ impl Rng {
         lo + (hi - lo) * self.unit()
     }
 
+    /// `xs` in a random order (Fisher–Yates from the last place).
+    pub fn shuffle<T>(&mut self, xs: &mut [T]) {
+        for i in (1..xs.len()).rev() {
+            xs.swap(i, (self.next() % (i as u64 + 1)) as usize);
+        }
+    }
+
     /// One of `xs`.
     pub fn pick<T: Copy>(&mut self, xs: &[T]) -> T {
         xs[(self.next() % xs.len() as u64) as usize]
