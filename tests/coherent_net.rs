@@ -58,7 +58,9 @@ fn edges(tris: &[[usize; 3]]) -> BTreeMap<Edge, usize> {
 /// Meshes `file` into one OBJ and returns its objects.
 fn mesh_to_obj(example: &str) -> BTreeMap<String, Vec<[usize; 3]>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let out = std::env::temp_dir().join(format!("surfc-net-{example}-{}.obj", std::process::id()));
+    // A directory of its own: two tests of one example run at once in this process.
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let out = dir.path().join(format!("{example}.obj"));
     let status = Command::new(env!("CARGO_BIN_EXE_surfc"))
         .arg("mesh")
         .arg(root.join("examples").join(format!("{example}.surf")))
@@ -68,9 +70,7 @@ fn mesh_to_obj(example: &str) -> BTreeMap<String, Vec<[usize; 3]>> {
         .status()
         .expect("surfc runs");
     assert!(status.success());
-    let objects = read_obj(&out);
-    let _ = std::fs::remove_file(&out);
-    objects
+    read_obj(&out)
 }
 
 /// Edges of `a` that `b` uses too: the polygons the two surfaces share.
