@@ -657,7 +657,7 @@ fn march_help(e: &MarchError) -> Option<&'static str> {
             "move `start` nearer the surface (and inside the `box`)"
         }
         MarchError::NoSignChange { .. } => {
-            "surfc meshes the boundary between f < 0 and f > 0: write the surface so that f changes sign on it (`g`, not `g^2` or `abs(g)`)"
+            "surfc meshes the boundary between f < 0 and f > 0: write the surface so that f changes sign on it (`g`, not `g^2` or `abs(g)`); a cusp or a crossing cannot be marched through, so keep it out of the `box`"
         }
         MarchError::Unverified { .. } => {
             "without `uniform: true` the local step refines there; else a smaller `step` (or, for a coarse but right mesh, a larger `tolerance`); `SURFC_TRACE=1` shows each refinement"

@@ -139,7 +139,7 @@ pub enum MarchError {
     #[error("the surface point {at} of the start lies outside the box")]
     StartOutsideBox { at: DVec3 },
     #[error(
-        "f does not change sign across the surface at {at}: it touches zero there without crossing it (a double root, as of a square or an `abs`)"
+        "f does not change sign across the surface at {at}, along its normal from a millionth to a hundredth of the step: it touches zero there without crossing it (a double root, as of a square or an `abs`), or it is singular there (a cusp or a crossing of two sheets closer than that)"
     )]
     NoSignChange { at: DVec3 },
     #[error("{polygon} has {len} vertices; a closed polygon needs at least 3")]
