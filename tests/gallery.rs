@@ -121,17 +121,31 @@ const MIN_ANGLE_DEG: f64 = 30.0;
 /// corner a tenth of the step above it, obtuse (110–117°) opposite the boundary edge. No
 /// slide, smoothing or off-centre raises it without lowering a neighbour, and the fix it
 /// needs (removing the free corner, or making it a border point) changes the mesh's
-/// connectivity at the border, which the stage does not do.
+/// connectivity at the border, which the stage does not do. The radius ratio's phase
+/// (`polish`) cannot lower them (its angle guard): the floors are what the angle's rounds
+/// reach (26.54°, 29.94°).
 const SMALLEST_ANGLE: [(&str, &str, f64); 2] = [
-    ("intersecting_patches", "patches", 26.0),
-    ("intersecting_patches", "patches_offset", 29.5),
+    ("intersecting_patches", "patches", 26.5),
+    ("intersecting_patches", "patches_offset", 29.9),
 ];
 
-/// The mean radius ratio (2·r_in/r_circ) every gallery mesh keeps. DESIGN.md §6 asks for
-/// 0.97; the meshes where the local step grades (genus 3, the dist-product sheets, six-peak,
-/// three cylinders, the six-hole sphere's circles) reach 0.954–0.966 (docs/marcher.md), so
-/// this is the floor they hold, not the goal.
-const MEAN_RADIUS_RATIO: f64 = 0.95;
+/// The mean radius ratio (2·r_in/r_circ) of every gallery mesh: DESIGN.md §6's 0.97.
+const MEAN_RADIUS_RATIO: f64 = 0.97;
+
+/// Meshes below `MEAN_RADIUS_RATIO`, with the floor they hold: just under what the quality
+/// stage reaches, each above issue 10's value before the local step (genus 3 0.955, patches
+/// 0.961, patches_offset 0.960, six-peak 0.951). All are where the local step grades the
+/// size continuously (genus 3's rims, the dist-product sheets, the six peaks, the plate's
+/// hole walls, the six-hole sphere's circles), where vertices with 5 or 7 neighbours
+/// remain after the valence flips and their triangles are less regular (docs/marcher.md).
+const RADIUS_RATIO: [(&str, &str, f64); 6] = [
+    ("genus3", "genus3", 0.962),
+    ("intersecting_patches", "patches", 0.966),
+    ("intersecting_patches", "patches_offset", 0.965),
+    ("plate", "part", 0.969),
+    ("six_peak", "six_peak", 0.964),
+    ("sphere_six_holes", "sphere_six_holes", 0.968),
+];
 
 /// Checks one mesh; returns the violations as readable lines.
 fn violations(file: &str, m: &Meshed) -> Vec<String> {
@@ -152,10 +166,12 @@ fn violations(file: &str, m: &Meshed) -> Vec<String> {
     let (_, found) = check(&m.mesh, None, &expect);
     let mut lines: Vec<String> = found.iter().map(|v| format!("{v:?}")).collect();
     let radius_ratio = quality(&m.mesh).radius_ratio_mean;
-    if radius_ratio < MEAN_RADIUS_RATIO {
-        lines.push(format!(
-            "mean radius ratio {radius_ratio:.4} < {MEAN_RADIUS_RATIO}"
-        ));
+    let floor = RADIUS_RATIO
+        .iter()
+        .find(|(f, mesh, _)| *f == file && *mesh == m.name)
+        .map_or(MEAN_RADIUS_RATIO, |&(_, _, r)| r);
+    if radius_ratio < floor {
+        lines.push(format!("mean radius ratio {radius_ratio:.4} < {floor}"));
     }
     if m.report.max_vertex_error > 1e-9 * m.step {
         lines.push(format!(

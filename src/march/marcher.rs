@@ -1186,7 +1186,8 @@ fn changes_sign(surface: &mut dyn Surface, sp: &SurfacePoint, step: f64) -> bool
         .any(|d| {
             let above = surface.value(sp.point + d * sp.normal);
             let below = surface.value(sp.point - d * sp.normal);
-            // A NaN or an exact zero is no evidence of a double root.
-            !(above * below > 0.0)
+            // A NaN or an exact zero is no evidence of a double root: only a product
+            // that compares greater than zero is.
+            (above * below).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
         })
 }

@@ -31,6 +31,19 @@ const NONE: u32 = u32::MAX;
 /// A fan around a vertex longer than this is not treated (a pathological star).
 const MAX_STAR: usize = 64;
 
+/// A fan longer than this is not smoothed (kept small so that `Fan` lives on the stack
+/// cheaply; the marcher's vertices have 4–9 neighbours).
+const MAX_FAN: usize = 16;
+
+/// A vertex that moved by less than this fraction of its local step does not mark its
+/// neighbours for the next round: the rounds after the first then cost in proportion to
+/// what still changes, not to the mesh.
+const SETTLE: f64 = 0.05;
+
+/// The rounds stop (once no triangle is below the target) when fewer than this fraction of
+/// the vertices moved by more than `SETTLE` in a round.
+const STALL: f64 = 0.03;
+
 /// Cosine of the largest angle allowed between the two triangles made by a flip (≈ 37°):
 /// beyond it the quad is folded over a ridge rather than a flat pair.
 const FOLD_COS: f64 = 0.8;
@@ -42,7 +55,21 @@ const DELAUNAY_MARGIN: f64 = 1e-3;
 /// A smoothing move must raise the sum of its fan's radius ratios by this much (unless it
 /// raises the fan's smallest angle): vertices that have converged stop moving, and stop
 /// marking their neighbours for the next round, so the rounds after the first cost little.
-const SMOOTH_GAIN: f64 = 2e-3;
+const SMOOTH_GAIN: f64 = 2e-4;
+
+/// The gain `SMOOTH_GAIN` asks where a move aims at the angle (around an insertion on trial,
+/// and slides along box faces): larger, so that those moves stay few and the trials'
+/// outcomes as they were measured.
+const ANGLE_GAIN: f64 = 2e-3;
+
+/// A smoothing move for the radius ratios may lower its fan's smallest angle, but not below
+/// this (nor below where it was): the mean radius ratio gains without giving the angle bar
+/// (30°) away.
+const KEEP_ANGLE: f64 = 34.0 * std::f64::consts::PI / 180.0;
+
+/// The first step along the gradient of a fan's radius ratios, as a fraction of its longest
+/// edge (then doubled, or cut to a quarter and a sixteenth).
+const ASCENT_STEP: f64 = 0.08;
 
 /// Only fans with a triangle of radius ratio below this are smoothed by the sweeps over the
 /// whole mesh (around an insertion every fan is): the marcher's
@@ -79,6 +106,8 @@ pub(super) struct Report {
     pub moves: usize,
     pub inserted: usize,
     pub rounds: u32,
+    /// Rounds of the radius ratio's phase after them (`polish`).
+    pub polish_rounds: u32,
     /// Why the stage stopped.
     pub stop: &'static str,
 }
@@ -130,6 +159,11 @@ pub(super) struct Stage<'a> {
     frozen: Vec<bool>,
     /// While an insertion is on trial: what it changed, to undo it.
     log: Option<Vec<Undo>>,
+    /// Per vertex: the number of triangles around it (its valence where it is free).
+    valence: Vec<u32>,
+    /// sin² of the target angle (set by `run`): a fan with a triangle below it is smoothed
+    /// for its angle first.
+    bad_sin2: f64,
 }
 
 /// One change recorded while an insertion is on trial.
@@ -228,6 +262,8 @@ impl<'a> Stage<'a> {
             out,
             frozen,
             log: None,
+            valence: Vec::new(),
+            bad_sin2: 0.0,
         }
     }
 
@@ -372,7 +408,7 @@ impl<'a> Stage<'a> {
             let mut moved = vec![p];
             for v in std::iter::once(p).chain(ring).chain(std::iter::once(p)) {
                 if (sliding || self.free(v))
-                    && self.relax(v, &mut star, f64::INFINITY, surface, project)
+                    && self.relax(v, &mut star, f64::INFINITY, false, surface, project)
                 {
                     moved.push(v);
                 }
@@ -434,6 +470,16 @@ impl<'a> Stage<'a> {
     /// pair's smallest angles, both new triangles face ∇f, the pair is not folded, and the
     /// new edge's midpoint is within `tolerance` of the surface. Returns whether it flipped.
     fn try_flip(&mut self, e: u32, surface: &mut dyn Surface, tolerance: f64) -> bool {
+        self.try_flip_as(e, surface, tolerance, None)
+    }
+
+    fn try_flip_as(
+        &mut self,
+        e: u32,
+        surface: &mut dyn Surface,
+        tolerance: f64,
+        valence_floor: Option<f64>,
+    ) -> bool {
         let f = self.twin[e as usize];
         if f == NONE {
             return false;
@@ -445,14 +491,34 @@ impl<'a> Stage<'a> {
             return false;
         }
         let [pa, pb, pc, pd] = [a, b, c, d].map(|v| self.p(v));
-        let angle = |o: DVec3, x: DVec3, y: DVec3| (x - o).angle_between(y - o);
-        if angle(pc, pa, pb) + angle(pd, pa, pb) <= std::f64::consts::PI + DELAUNAY_MARGIN {
-            return false;
-        }
         let (nt, nu) = ([a, d, c], [d, b, c]);
-        let old = self.q([a, b, c]).min(self.q([b, a, d]));
-        if self.q(nt).min(self.q(nu)) < old {
-            return false;
+        let old = || self.q([a, b, c]).min(self.q([b, a, d]));
+        if let Some(floor) = valence_floor {
+            if ![a, b, c, d].iter().all(|&v| self.free(v)) {
+                return false;
+            }
+            let val = |v: u32| self.valence[v as usize] as f64;
+            let en = |x: f64| (x - 6.0) * (x - 6.0);
+            let before = en(val(a)) + en(val(b)) + en(val(c)) + en(val(d));
+            let after = en(val(a) - 1.0) + en(val(b) - 1.0) + en(val(c) + 1.0) + en(val(d) + 1.0);
+            if after >= before {
+                return false;
+            }
+            if self.q(nt).min(self.q(nu)) < old().min(floor) {
+                return false;
+            }
+        } else {
+            // sin(α + β) of the angles at c and d opposite a–b, without inverse cosines:
+            // α + β > π + margin exactly where it is below −sin(margin).
+            let (u1, v1, u2, v2) = (pa - pc, pb - pc, pa - pd, pb - pd);
+            let lens = u1.length() * v1.length() * u2.length() * v2.length();
+            let sin_sum = u1.cross(v1).length() * u2.dot(v2) + u1.dot(v1) * u2.cross(v2).length();
+            if !(lens > 0.0 && sin_sum < -DELAUNAY_MARGIN.sin() * lens) {
+                return false;
+            }
+            if self.q(nt).min(self.q(nu)) < old() {
+                return false;
+            }
         }
         let (pt, pu) = (self.corners(nt), self.corners(nu));
         if !self.facing(nt, pt) || !self.facing(nu, pu) {
@@ -482,6 +548,12 @@ impl<'a> Stage<'a> {
         self.link(3 * t + 2, o_ca);
         self.link(3 * u, o_db);
         self.link(3 * u + 1, o_bc);
+        if valence_floor.is_some() {
+            self.valence[a as usize] -= 1;
+            self.valence[b as usize] -= 1;
+            self.valence[c as usize] += 1;
+            self.valence[d as usize] += 1;
+        }
         true
     }
 
@@ -576,8 +648,11 @@ impl<'a> Stage<'a> {
     fn angle_based(&self, v: u32, star: &[u32]) -> DVec3 {
         let (p, n) = (self.p(v), self.normal[v as usize]);
         let flat = |q: DVec3| q - (q - p).dot(n) * n;
-        let ring: Vec<DVec3> = star.iter().map(|&e| flat(self.p(self.dst(e)))).collect();
-        let k = ring.len();
+        let k = star.len().min(MAX_FAN);
+        let mut ring = [DVec3::ZERO; MAX_FAN];
+        for (r, &e) in ring.iter_mut().zip(star) {
+            *r = flat(self.p(self.dst(e)));
+        }
         let mut sum = DVec3::ZERO;
         for j in 0..k {
             let pj = ring[j];
@@ -612,59 +687,92 @@ impl<'a> Stage<'a> {
             })
     }
 
-    /// Moves free vertex v to a better place on the surface if one of the candidates
-    /// (angle-based, then the mean of the ring, then halfway to either) raises the sum of
-    /// the fan's radius ratios without lowering its smallest angle, keeps every triangle
-    /// facing ∇f, stays in the box, and lengthens no edge of the fan beyond its longest.
+    /// Moves free vertex v to a better place on the surface. For the angle (`ratio` false:
+    /// the rounds proper and insertions on trial), where the fan has a triangle of radius
+    /// ratio below `below`: the angle-based position, the mean of the ring and halfway to
+    /// either or towards the worst triangle's ideal apex, the first that is better (the
+    /// fan's smallest angle rises, or stays and its radius ratios rise by `ANGLE_GAIN`). For
+    /// the ratios (`polish`): first a step up the gradient of the fan's sum of radius ratios
+    /// (`Fan::ascent`), then the same candidates, better if the smallest angle rises or the
+    /// ratios rise by `SMOOTH_GAIN` while the smallest angle stays at or above min(its old
+    /// value, `KEEP_ANGLE`). The candidate is projected; the move is kept if the fan is
+    /// still better there, every triangle faces ∇f and no edge of the fan grows beyond its
+    /// longest.
     fn smooth(
         &mut self,
         v: u32,
         star: &[u32],
         below: f64,
+        ratio: bool,
         project: &mut dyn FnMut(DVec3) -> Option<(DVec3, DVec3)>,
     ) -> bool {
-        let p = self.p(v);
-        let (old_worst, old_worst_rr, old_sum) = self.star_quality(star, p);
-        if old_worst_rr >= below {
+        let Some(fan) = Fan::closed(self, star) else {
             return false;
-        }
-        let longest = star
-            .iter()
-            .map(|&e| p.distance_squared(self.p(self.dst(e))))
-            .fold(0.0f64, f64::max);
-        let n = self.normal[v as usize];
-        let ring_mean = star
-            .iter()
-            .map(|&e| {
-                let q = self.p(self.dst(e));
-                q - (q - p).dot(n) * n
-            })
-            .sum::<DVec3>()
-            / star.len() as f64;
-        let ab = self.angle_based(v, star);
-        let ideal = self.ideal_apex(v, star);
-        // Better: the worst angle rises, or stays and the radius ratios rise.
-        let better = |s: &Self, q: DVec3| {
-            let (w, _, sum) = s.star_quality(star, q);
-            w > old_worst * (1.0 + 1e-6) || (w >= old_worst && sum > old_sum + SMOOTH_GAIN)
         };
-        let Some(target) = [
-            ab,
-            ring_mean,
-            0.5 * (p + ab),
-            0.5 * (p + ring_mean),
-            0.5 * (p + ideal),
-            0.75 * p + 0.25 * ideal,
-            0.875 * p + 0.125 * ideal,
-        ]
-        .into_iter()
-        .find(|&q| better(self, q)) else {
+        let p = self.p(v);
+        let old = fan.eval(p);
+        let longest = fan.longest(p);
+        let for_angle = !ratio;
+        let (keep, gain) = if for_angle {
+            (old.worst, ANGLE_GAIN)
+        } else {
+            (old.worst.min(KEEP_ANGLE.sin().powi(2)), SMOOTH_GAIN)
+        };
+        let better = |q: &FanQuality| {
+            q.worst > old.worst * (1.0 + 1e-6) || (q.worst >= keep && q.sum > old.sum + gain)
+        };
+        let n = self.normal[v as usize];
+        // For the ratios, a fan with a triangle below the target tries the angle's candidates
+        // first (the ascent would take the move and leave the angle where it is); the others
+        // the ascent first. For the angle, only the angle's candidates.
+        let angle_first = for_angle || old.worst < self.bad_sin2;
+        let by_ratio = || {
+            if for_angle {
+                return None;
+            }
+            fan.ascent(p, n, old.sum, longest.sqrt())
+                .filter(|&q| better(&fan.eval(q)))
+        };
+        let by_angle = |s: &Self| {
+            if old.worst_rr >= below {
+                return None;
+            }
+            let ring_mean = fan.ring[..fan.k]
+                .iter()
+                .map(|&q| q - (q - p).dot(n) * n)
+                .sum::<DVec3>()
+                / fan.k as f64;
+            let ab = s.angle_based(v, star);
+            let ideal = s.ideal_apex(v, star);
+            [
+                ab,
+                ring_mean,
+                0.5 * (p + ab),
+                0.5 * (p + ring_mean),
+                0.5 * (p + ideal),
+                0.75 * p + 0.25 * ideal,
+                0.875 * p + 0.125 * ideal,
+            ]
+            .into_iter()
+            .find(|&q| better(&fan.eval(q)))
+        };
+        let target = if angle_first {
+            by_angle(self).or_else(by_ratio)
+        } else {
+            by_ratio().or_else(|| by_angle(self))
+        };
+        let Some(target) = target else {
             return false;
         };
         let Some((sp, sn)) = project(target) else {
             return false;
         };
-        self.move_if(v, star, (sp, sn), longest, &better)
+        if better(&fan.eval(sp)) && fan.holds(sp, sn, longest) {
+            self.place(v, sp, sn);
+            true
+        } else {
+            false
+        }
     }
 
     /// Puts v at `to` (point, normal) if the fan is `better` there, every triangle of it
@@ -703,6 +811,7 @@ impl<'a> Stage<'a> {
         v: u32,
         star: &mut Vec<u32>,
         below: f64,
+        ratio: bool,
         surface: &mut dyn Surface,
         project: &mut Project<'_>,
     ) -> bool {
@@ -711,8 +820,8 @@ impl<'a> Stage<'a> {
                 return false;
             }
             let mut proj = |q: DVec3| project(surface, q);
-            self.smooth(v, star, below, &mut proj)
-        } else if let Some(face) = self.slide_face(v) {
+            self.smooth(v, star, below, ratio, &mut proj)
+        } else if let Some(face) = self.slide_face(v).filter(|_| !ratio) {
             self.open_star(v, star) && self.slide(v, star, face, below, surface)
         } else {
             false
@@ -808,7 +917,7 @@ impl<'a> Stage<'a> {
         let targets = [on_line(0.5 * (b0 + b1)), on_line(ideal), on_line(ring_mean)];
         let better = |s: &Self, q: DVec3| {
             let (w, _, sum) = s.star_quality(star, q);
-            w > old_worst * (1.0 + 1e-6) || (w >= old_worst && sum > old_sum + SMOOTH_GAIN)
+            w > old_worst * (1.0 + 1e-6) || (w >= old_worst && sum > old_sum + ANGLE_GAIN)
         };
         let longest = star
             .iter()
@@ -1088,6 +1197,7 @@ impl<'a> Stage<'a> {
         project: &mut Project<'_>,
     ) -> Report {
         let sin_bad = limits.angle.sin();
+        self.bad_sin2 = sin_bad * sin_bad;
         let bad_count = |s: &Self| s.tri.iter().filter(|&&t| s.q(t) < sin_bad).count();
         let mut report = Report {
             below_before: bad_count(self),
@@ -1132,7 +1242,7 @@ impl<'a> Stage<'a> {
                 let may = self.free(v) || (sliding && bad_corner[v as usize]);
                 if dirty[v as usize]
                     && may
-                    && self.relax(v, &mut star, SMOOTH_BELOW, surface, project)
+                    && self.relax(v, &mut star, SMOOTH_BELOW, false, surface, project)
                 {
                     moves += 1;
                     moved[v as usize] = true;
@@ -1186,8 +1296,256 @@ impl<'a> Stage<'a> {
                 break;
             }
         }
+        // The angle is where the rounds proper leave it; now the radius ratios, under a
+        // guard that cannot lower it (`polish`).
+        self.polish(limits, surface, project, &mut report);
         report.below_after = bad_count(self);
         report
+    }
+
+    /// Raises the mean radius ratio once the rounds proper are done (issue 10, M4):
+    /// valence flips (`try_flip_as`) on every edge and then around what changed, and
+    /// smoothing of free vertices up the gradient of their fan's radius ratios
+    /// (`smooth` with `ratio`), for up to `Limits::rounds` rounds and until fewer than
+    /// `STALL` of the vertices move by more than `SETTLE` of their step. No insertion, no
+    /// Delaunay flip (it would undo the valence flips), no slide: box faces and polygons are
+    /// as the rounds proper left them.
+    ///
+    /// The angle guard: a flip or a move is taken only if the smallest angle of the
+    /// triangles it changes stays at or above the smaller of the target (`Limits::angle`,
+    /// `KEEP_ANGLE` for moves) and the smallest angle those triangles had before. Every
+    /// triangle a change makes is then at least min(target, smallest angle of the mesh
+    /// before the change), so the mesh's smallest angle after this phase is at least
+    /// min(target, what the rounds proper reached): where they reached 30° it stays, and
+    /// where they left a triangle below it (patches' 26.5°), no triangle goes lower. Run
+    /// interleaved with the rounds proper, the same moves left the flat ellipsoid's and the
+    /// plate's last bad triangles where insertion and the angle's smoothing no longer fixed
+    /// them (28.4° against 30°): the angle comes first, then the ratios.
+    fn polish(
+        &mut self,
+        limits: &Limits,
+        surface: &mut dyn Surface,
+        project: &mut Project<'_>,
+        report: &mut Report,
+    ) {
+        let sin_bad = limits.angle.sin();
+        let mut dirty = vec![true; self.pos.len()];
+        let mut star = Vec::new();
+        for round in 0..limits.rounds {
+            report.polish_rounds = round + 1;
+            self.valence.clear();
+            self.valence.resize(self.pos.len(), 0);
+            for t in self.tri.iter() {
+                for &v in t {
+                    self.valence[v as usize] += 1;
+                }
+            }
+            let queue: Vec<u32> = (0..3 * self.tri.len() as u32)
+                .filter(|&e| {
+                    let f = self.twin[e as usize];
+                    f != NONE
+                        && e < f
+                        && (dirty[self.org(e) as usize] || dirty[self.dst(e) as usize])
+                })
+                .collect();
+            for e in queue {
+                let f = self.twin[e as usize];
+                if f == NONE {
+                    continue;
+                }
+                let quad = [
+                    self.org(e),
+                    self.dst(e),
+                    self.org(prev(e)),
+                    self.org(prev(f)),
+                ];
+                if self.try_flip_as(e, surface, limits.tolerance, Some(sin_bad)) {
+                    report.flips += 1;
+                    for v in quad {
+                        dirty[v as usize] = true;
+                    }
+                }
+            }
+            let mut moved = vec![false; self.pos.len()];
+            let (mut moves, mut settled) = (0, 0);
+            for v in 0..self.pos.len() as u32 {
+                let from = self.p(v);
+                if dirty[v as usize]
+                    && self.free(v)
+                    && self.relax(v, &mut star, SMOOTH_BELOW, true, surface, project)
+                {
+                    moves += 1;
+                    if from.distance(self.p(v)) > SETTLE * self.h[v as usize] {
+                        moved[v as usize] = true;
+                    } else {
+                        settled += 1;
+                    }
+                }
+            }
+            report.moves += moves;
+            let mut next_dirty = vec![false; self.pos.len()];
+            for t in self.tri.iter() {
+                if t.iter().any(|&v| moved[v as usize]) {
+                    for &v in t {
+                        next_dirty[v as usize] = true;
+                    }
+                }
+            }
+            dirty = next_dirty;
+            if ((moves - settled) as f64) < STALL * self.pos.len() as f64 {
+                break;
+            }
+        }
+    }
+}
+
+/// The ring around a free vertex, gathered once per smoothing attempt so that the many
+/// candidate places are judged without index chasing: ring points in order (the fan is
+/// closed), their normals, and the lengths of the ring's edges (the sides opposite v).
+struct Fan {
+    k: usize,
+    ring: [DVec3; MAX_FAN + 1],
+    normal: [DVec3; MAX_FAN + 1],
+    opp: [f64; MAX_FAN + 1],
+}
+
+/// The quality of a fan with its centre at some place: the worst sin² of a smallest angle,
+/// the worst radius ratio, the sum of radius ratios.
+struct FanQuality {
+    worst: f64,
+    worst_rr: f64,
+    sum: f64,
+}
+
+impl Fan {
+    /// The fan of a closed star (`Stage::star`'s half-edges), or None if it is too long.
+    fn closed(stage: &Stage<'_>, star: &[u32]) -> Option<Fan> {
+        let k = star.len();
+        if !(3..=MAX_FAN).contains(&k) {
+            return None;
+        }
+        let mut fan = Fan {
+            k,
+            ring: [DVec3::ZERO; MAX_FAN + 1],
+            normal: [DVec3::ZERO; MAX_FAN + 1],
+            opp: [0.0; MAX_FAN + 1],
+        };
+        for (i, &e) in star.iter().enumerate() {
+            let b = stage.dst(e);
+            fan.ring[i] = stage.p(b);
+            fan.normal[i] = stage.normal[b as usize];
+        }
+        // The closing copy: triangle i is (centre, ring[i], ring[i + 1]).
+        fan.ring[k] = fan.ring[0];
+        fan.normal[k] = fan.normal[0];
+        for i in 0..k {
+            fan.opp[i] = fan.ring[i].distance(fan.ring[i + 1]);
+        }
+        Some(fan)
+    }
+
+    /// The fan's quality with its centre at p.
+    fn eval(&self, p: DVec3) -> FanQuality {
+        let mut d = [0.0; MAX_FAN + 1];
+        for (di, &r) in d.iter_mut().zip(&self.ring[..self.k]) {
+            *di = p.distance(r);
+        }
+        d[self.k] = d[0];
+        let mut q = FanQuality {
+            worst: f64::INFINITY,
+            worst_rr: f64::INFINITY,
+            sum: 0.0,
+        };
+        for i in 0..self.k {
+            let (x, y, z) = (d[i], self.opp[i], d[i + 1]);
+            let area2 = (self.ring[i] - p)
+                .cross(self.ring[i + 1] - p)
+                .length_squared();
+            let xyz = x * y * z;
+            let den = xyz * (x + y + z);
+            let rr = if den > 0.0 { 4.0 * area2 / den } else { 0.0 };
+            // sin of the smallest angle = 2A·shortest/(x·y·z), squared.
+            let m = x.min(y).min(z);
+            let sin2 = if xyz > 0.0 {
+                area2 * m * m / (xyz * xyz)
+            } else {
+                0.0
+            };
+            q.worst = q.worst.min(sin2);
+            q.worst_rr = q.worst_rr.min(rr);
+            q.sum += rr;
+        }
+        q
+    }
+
+    /// The sum of radius ratios alone, with the centre at p.
+    fn sum(&self, p: DVec3) -> f64 {
+        let mut prev = p.distance(self.ring[0]);
+        let mut sum = 0.0;
+        for i in 0..self.k {
+            let next = p.distance(self.ring[i + 1]);
+            let area2 = (self.ring[i] - p)
+                .cross(self.ring[i + 1] - p)
+                .length_squared();
+            let den = prev * self.opp[i] * next * (prev + self.opp[i] + next);
+            if den > 0.0 {
+                sum += 4.0 * area2 / den;
+            }
+            prev = next;
+        }
+        sum
+    }
+
+    /// The longest edge from p to the ring, squared.
+    fn longest(&self, p: DVec3) -> f64 {
+        self.ring[..self.k]
+            .iter()
+            .map(|&q| p.distance_squared(q))
+            .fold(0.0, f64::max)
+    }
+
+    /// Every triangle with the centre at p (normal n) faces the side ∇f points to at its
+    /// three corners, and no edge from p is longer than `longest` (squared).
+    fn holds(&self, p: DVec3, n: DVec3, longest: f64) -> bool {
+        (0..self.k).all(|i| {
+            let t = (self.ring[i] - p).cross(self.ring[i + 1] - p);
+            t.dot(n) > 0.0
+                && t.dot(self.normal[i]) > 0.0
+                && t.dot(self.normal[i + 1]) > 0.0
+                && p.distance_squared(self.ring[i]) <= longest
+        })
+    }
+
+    /// A step up the gradient of the fan's sum of radius ratios (`s0` at p) in the tangent
+    /// plane at p (normal n): the gradient from two one-sided differences, then a step of
+    /// `ASCENT_STEP`·`len` along it, doubled or cut while that gains more; None where no
+    /// step gains `SMOOTH_GAIN`.
+    fn ascent(&self, p: DVec3, n: DVec3, s0: f64, len: f64) -> Option<DVec3> {
+        let t1 = n.any_orthonormal_vector();
+        let t2 = n.cross(t1);
+        let eps = 1e-6 * len;
+        let g = (self.sum(p + eps * t1) - s0) * t1 + (self.sum(p + eps * t2) - s0) * t2;
+        let dir = g.normalize_or_zero();
+        if dir == DVec3::ZERO {
+            return None;
+        }
+        let at = |k: f64| {
+            let q = p + dir * (k * len);
+            (self.sum(q), q)
+        };
+        let first = at(ASCENT_STEP);
+        let best = if first.0 > s0 {
+            let far = at(2.0 * ASCENT_STEP);
+            if far.0 > first.0 { far } else { first }
+        } else {
+            let near = at(0.25 * ASCENT_STEP);
+            if near.0 > s0 {
+                near
+            } else {
+                at(0.0625 * ASCENT_STEP)
+            }
+        };
+        (best.0 > s0 + SMOOTH_GAIN).then_some(best.1)
     }
 }
 
