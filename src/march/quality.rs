@@ -1,6 +1,9 @@
 //! The quality stage between the march and the verification (issue 13): restricted-Delaunay
 //! edge flips, angle-based smoothing of free vertices on the surface, and insertion of
-//! off-centres where a triangle stays below the target angle.
+//! off-centres where a triangle stays below the target angle; then, for the mean radius
+//! ratio (issue 10, M4), valence flips and smoothing up the gradient of each fan's radius
+//! ratios under a guard that cannot lower the smallest angle below min(target, what the
+//! rounds reached) (`Stage::polish`).
 //!
 //! Input: the marcher's triangulation (vertices exactly on the surface, normals ∇f/|∇f|,
 //! which vertices are polygon or border points) and the surface. Output: the same
