@@ -1191,6 +1191,16 @@ impl<'a> Stage<'a> {
 
     // ------------------------------------------------------------ driver
 
+    /// The interior edges (one half-edge each, the lower) with an end marked in `dirty`.
+    fn dirty_edges(&self, dirty: &[bool]) -> Vec<u32> {
+        (0..3 * self.tri.len() as u32)
+            .filter(|&e| {
+                let f = self.twin[e as usize];
+                f != NONE && e < f && (dirty[self.org(e) as usize] || dirty[self.dst(e) as usize])
+            })
+            .collect()
+    }
+
     /// Runs the stage. `project` puts a point near the surface onto it (point and unit
     /// normal) or gives None.
     pub fn run(
@@ -1217,14 +1227,7 @@ impl<'a> Stage<'a> {
             let sliding = round >= limits.rounds;
             report.rounds = round + 1;
             // 1. Flips over every edge (the first round) or the edges around what changed.
-            let queue: Vec<u32> = (0..3 * self.tri.len() as u32)
-                .filter(|&e| {
-                    let f = self.twin[e as usize];
-                    f != NONE
-                        && e < f
-                        && (dirty[self.org(e) as usize] || dirty[self.dst(e) as usize])
-                })
-                .collect();
+            let queue = self.dirty_edges(&dirty);
             let budget = 2 * self.tri.len() + 64;
             let (flips, _) = self.flip_all(queue, budget, surface, limits.tolerance);
             report.flips += flips;
@@ -1343,14 +1346,7 @@ impl<'a> Stage<'a> {
                     self.valence[v as usize] += 1;
                 }
             }
-            let queue: Vec<u32> = (0..3 * self.tri.len() as u32)
-                .filter(|&e| {
-                    let f = self.twin[e as usize];
-                    f != NONE
-                        && e < f
-                        && (dirty[self.org(e) as usize] || dirty[self.dst(e) as usize])
-                })
-                .collect();
+            let queue = self.dirty_edges(&dirty);
             for e in queue {
                 let f = self.twin[e as usize];
                 if f == NONE {
