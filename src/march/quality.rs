@@ -137,8 +137,12 @@ pub(super) fn min_sin(a: DVec3, b: DVec3, c: DVec3) -> f64 {
 /// The radius ratio 2·r_in/r_circ = 16·A² / (abc·(a+b+c)): 1 for an equilateral triangle,
 /// 0 for a degenerate one.
 pub(super) fn radius_ratio(a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let (x, y, z) = (a.distance(b), b.distance(c), c.distance(a));
     let area2 = (b - a).cross(c - a).length_squared(); // (2A)²
+    ratio_of_sides(a.distance(b), b.distance(c), c.distance(a), area2)
+}
+
+/// 2·r_in/r_circ of a triangle with sides x, y, z and (2A)² = `area2`; 0 if degenerate.
+fn ratio_of_sides(x: f64, y: f64, z: f64, area2: f64) -> f64 {
     let den = x * y * z * (x + y + z);
     if den > 0.0 { 4.0 * area2 / den } else { 0.0 }
 }
@@ -1337,15 +1341,17 @@ impl<'a> Stage<'a> {
         let sin_bad = limits.angle.sin();
         let mut dirty = vec![true; self.pos.len()];
         let mut star = Vec::new();
+        // Counted once: the phase's flips (`try_flip_as`) keep it up to date, and nothing
+        // else in the phase changes the triangles.
+        self.valence.clear();
+        self.valence.resize(self.pos.len(), 0);
+        for t in self.tri.iter() {
+            for &v in t {
+                self.valence[v as usize] += 1;
+            }
+        }
         for round in 0..limits.rounds {
             report.polish_rounds = round + 1;
-            self.valence.clear();
-            self.valence.resize(self.pos.len(), 0);
-            for t in self.tri.iter() {
-                for &v in t {
-                    self.valence[v as usize] += 1;
-                }
-            }
             let queue = self.dirty_edges(&dirty);
             for e in queue {
                 let f = self.twin[e as usize];
@@ -1461,8 +1467,7 @@ impl Fan {
                 .cross(self.ring[i + 1] - p)
                 .length_squared();
             let xyz = x * y * z;
-            let den = xyz * (x + y + z);
-            let rr = if den > 0.0 { 4.0 * area2 / den } else { 0.0 };
+            let rr = ratio_of_sides(x, y, z, area2);
             // sin of the smallest angle = 2A·shortest/(x·y·z), squared.
             let m = x.min(y).min(z);
             let sin2 = if xyz > 0.0 {
@@ -1486,10 +1491,7 @@ impl Fan {
             let area2 = (self.ring[i] - p)
                 .cross(self.ring[i + 1] - p)
                 .length_squared();
-            let den = prev * self.opp[i] * next * (prev + self.opp[i] + next);
-            if den > 0.0 {
-                sum += 4.0 * area2 / den;
-            }
+            sum += ratio_of_sides(prev, self.opp[i], next, area2);
             prev = next;
         }
         sum
