@@ -1571,7 +1571,8 @@ impl Fan {
         let g = g - g.dot(n) * n;
         let slope = g.length();
         let reach = 2.0 * ASCENT_STEP * len;
-        if !(slope * reach > SMOOTH_GAIN) {
+        // Also None for a NaN slope (a degenerate fan).
+        if slope * reach <= SMOOTH_GAIN || slope.is_nan() {
             return None;
         }
         let dir = g / slope;
