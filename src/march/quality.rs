@@ -80,12 +80,13 @@ const ASCENT_STEP: f64 = 0.08;
 /// of a surfacepoint.
 const SMOOTH_BELOW: f64 = 0.97;
 
-/// The rounds proper smooth for the angle only within two rings of the corners of a
-/// triangle whose smallest angle is below this (degrees; at least the target); the ratios
-/// everywhere else are `polish`'s. Smoothing every fan below `SMOOTH_BELOW` in every round
-/// cost 4.5 s of the fine sphere's 10 s for at most 0.002 of mean radius ratio on the
-/// gallery; at the target itself (30°) the `g2_set` closure fell from 0.9750 to 0.9736,
-/// under the 0.974 it had before the local step; at 42° it keeps 0.9745 (docs/marcher.md).
+/// The rounds proper smooth for the angle only the corners of triangles whose smallest
+/// angle is below this (degrees; at least the target) and two rings around those below the
+/// target; the ratios everywhere else are `polish`'s. Smoothing every fan below
+/// `SMOOTH_BELOW` in every round cost 4.5 s of the fine sphere's 10 s for at most 0.002 of
+/// mean radius ratio on the gallery; around the bad triangles alone the `g2_set` closure
+/// fell from 0.9750 to 0.9736, under the 0.974 it had before the local step; with the
+/// corners below 42° it keeps 0.9744 (docs/marcher.md).
 const POOR_ANGLE: f64 = 42.0;
 
 /// Rounds after `Limits::rounds`, while a triangle is still below the target, in which the
@@ -1279,18 +1280,22 @@ impl<'a> Stage<'a> {
             let (flips, _) = self.flip_all(queue, budget, surface, limits.tolerance);
             report.flips += flips;
             // 2. Smoothing, in index order, of free vertices whose fan changed and that are
-            // corners of a triangle below the target or their neighbours: these rounds are
-            // for the angle (the ratios are `polish`'s), and a bad triangle whose corners
-            // may not move is mended by moving its neighbours.
+            // corners of a triangle below `POOR_ANGLE` or within two rings of a triangle
+            // below the target: these rounds are for the angle (the ratios are `polish`'s),
+            // and a bad triangle whose corners may not move is mended by moving its
+            // neighbours.
             let mut moved = vec![false; self.pos.len()];
             let mut moves = 0;
             // Border vertices slide only where a triangle of theirs is below the target:
             // elsewhere the box's border is as the march placed it.
             let bad_corner = self.corners_below(sin_bad);
-            let near_poor = self.grow(&self.grow(&self.corners_below(sin_poor)));
+            let mut smoothed = self.corners_below(sin_poor);
+            for (s, near) in smoothed.iter_mut().zip(self.grow(&self.grow(&bad_corner))) {
+                *s |= near;
+            }
             for v in 0..self.pos.len() as u32 {
                 let may =
-                    (self.free(v) && near_poor[v as usize]) || (sliding && bad_corner[v as usize]);
+                    (self.free(v) && smoothed[v as usize]) || (sliding && bad_corner[v as usize]);
                 if dirty[v as usize]
                     && may
                     && self.relax(v, &mut star, SMOOTH_BELOW, false, surface, project)
