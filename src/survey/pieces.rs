@@ -145,6 +145,12 @@ pub fn march(
         let started = std::time::Instant::now();
         let pieced = plan(fork, input, settings).and_then(|p| match p {
             Some((axis, cuts, chi)) => {
+                if trace {
+                    eprintln!(
+                        "pieces: survey and cuts {:.3} s",
+                        started.elapsed().as_secs_f64()
+                    );
+                }
                 march_pieces(fork, input, settings, axis, &cuts, chi).map(Some)
             }
             None => Ok(None),
@@ -506,7 +512,8 @@ fn march_pieces(
                 .map_err(|source| NoCut::Piece { piece, source })
         })
         .collect();
-    let marched = marched.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let mut marched = marched.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let joining = std::time::Instant::now();
     let margin = SLAB_MARGIN * input.step;
     for (piece, m) in marched.iter().enumerate() {
         let below = piece.checked_sub(1).map(|k| cuts[k].at - margin);
@@ -525,7 +532,10 @@ fn march_pieces(
     if total > limit {
         return Err(NoCut::Limit { total, limit });
     }
-    let parts: Vec<Mesh> = marched.iter().map(|m| m.mesh.clone()).collect();
+    let parts: Vec<Mesh> = marched
+        .iter_mut()
+        .map(|m| std::mem::take(&mut m.mesh))
+        .collect();
     let mesh = merge(&parts);
     let topo = topology(&mesh);
     if !topo.is_closed_and_oriented() {
@@ -545,11 +555,20 @@ fn march_pieces(
     if !band(&mesh, axis, &planes, BAND * input.step).is_empty() {
         return Err(NoCut::Joined("triangles of two pieces cross"));
     }
-    let (at_cuts, elsewhere) = smallest_angles(&mesh, cuts);
-    if at_cuts < CUT_ANGLE.to_radians().min(elsewhere) {
+    // Away from the cuts only when a triangle at them is below the bar.
+    let on = on_cuts(&mesh, cuts);
+    let at_cuts = smallest_angle(&mesh, &on, true);
+    let bar = CUT_ANGLE.to_radians();
+    if at_cuts < bar && at_cuts < smallest_angle(&mesh, &on, false) {
         return Err(NoCut::Angle {
             degrees: at_cuts.to_degrees(),
         });
+    }
+    if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
+        eprintln!(
+            "pieces: joined and checked in {:.3} s",
+            joining.elapsed().as_secs_f64()
+        );
     }
     let mut warnings = Vec::new();
     for m in &marched {
@@ -576,33 +595,33 @@ fn march_pieces(
     })
 }
 
-/// The smallest angle (radians) of the triangles with a corner on a cut polygon, and of the
-/// others.
-fn smallest_angles(mesh: &Mesh, cuts: &[Cut]) -> (f64, f64) {
+/// Which vertices of `mesh` are cut polygon vertices.
+fn on_cuts(mesh: &Mesh, cuts: &[Cut]) -> Vec<bool> {
     let bits = |p: &DVec3| p.to_array().map(f64::to_bits);
     let cut: std::collections::HashSet<[u64; 3]> = cuts
         .iter()
         .flat_map(|c| c.loops.iter().flatten())
         .map(bits)
         .collect();
-    let on: Vec<bool> = mesh
-        .vertices
+    mesh.vertices
         .iter()
         .map(|p| cut.contains(&bits(p)))
-        .collect();
-    let (mut at_cuts, mut elsewhere) = (f64::INFINITY, f64::INFINITY);
-    for t in &mesh.triangles {
-        let v = t.map(|k| mesh.vertices[k as usize]);
-        let smallest = (0..3)
-            .map(|k| (v[(k + 1) % 3] - v[k]).angle_between(v[(k + 2) % 3] - v[k]))
-            .fold(f64::INFINITY, f64::min);
-        if t.iter().any(|&k| on[k as usize]) {
-            at_cuts = at_cuts.min(smallest);
-        } else {
-            elsewhere = elsewhere.min(smallest);
-        }
-    }
-    (at_cuts, elsewhere)
+        .collect()
+}
+
+/// The smallest angle (radians) of the triangles with a corner on a cut polygon (`at_cuts`),
+/// or of the others.
+fn smallest_angle(mesh: &Mesh, on: &[bool], at_cuts: bool) -> f64 {
+    mesh.triangles
+        .iter()
+        .filter(|t| t.iter().any(|&k| on[k as usize]) == at_cuts)
+        .map(|t| {
+            let v = t.map(|k| mesh.vertices[k as usize]);
+            (0..3)
+                .map(|k| (v[(k + 1) % 3] - v[k]).angle_between(v[(k + 2) % 3] - v[k]))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The crossing pairs among the triangles with a vertex within `reach` of a plane: where the
