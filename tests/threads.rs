@@ -121,7 +121,10 @@ fn a_fine_sphere_is_the_same_bytes_for_any_thread_count() {
     assert!(size > 1_000_000, "{size} bytes of OBJ");
     // Above 200 k triangles the sphere is marched in two slabs (`survey::pieces`, issue 14
     // M4): the bytes above are those of a cut mesh, joined watertight.
-    let run = surfc(&["mesh", "sphere.surf", "-o", "s.glb", "--json", "-q"], &dir);
+    let run = surfc(
+        &["mesh", "sphere.surf", "-o", "s.glb", "--json", "-q"],
+        &dir,
+    );
     assert_eq!(run.code, 0, "{}", run.stderr);
     let json: serde_json::Value = serde_json::from_slice(&run.stdout).expect("JSON");
     let m = &json["meshes"][0];

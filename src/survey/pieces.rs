@@ -242,7 +242,8 @@ fn plan(
         })
         .sum();
     let estimate = area / (0.25 * 3f64.sqrt() * step * step);
-    if !(estimate > settings.pieces_above as f64) {
+    // A NaN area (a survey vertex not finite) cuts nothing either.
+    if estimate.is_nan() || estimate <= settings.pieces_above as f64 {
         return Ok(None);
     }
     let topo = topology(&coarse);
@@ -355,7 +356,7 @@ fn cut(
         for &p in &traced {
             let g = s.value_gradient(p).gradient;
             let sine = g.normalize_or_zero().cross(e).length();
-            if !(sine >= CROSS_SINE) {
+            if sine.is_nan() || sine < CROSS_SINE {
                 return Err(refuse("the surface meets the plane at less than 30°"));
             }
         }
