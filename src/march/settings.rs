@@ -90,7 +90,10 @@ pub struct MarchSettings {
     /// never cuts.
     pub pieces_above: u64,
     /// The most slabs a component is cut into: ⌈estimate / `pieces_above`⌉, at least 2 and
-    /// at most this. Default 2: a slab between two planes meets the far plane's polygons with its front, where the quality stage sometimes leaves a triangle just under 30° (a sphere in four slabs: 29.3°; docs/pieces.md). Below 2 nothing is cut.
+    /// at most this. Default 2: a slab between two planes meets the far plane's polygons
+    /// with its front, where the quality stage sometimes leaves a triangle just under 30° (a
+    /// sphere in four slabs: 29.3°, and the cut is refused; docs/pieces.md). Below 2 nothing
+    /// is cut.
     pub pieces_max: u32,
 }
 
