@@ -5,6 +5,7 @@
 //! taking its results in thread order instead of file order shows here.
 //!
 //! The components of one block are marched several at once: a scene of six is checked too.
+//! The fine sphere is large enough to be cut into two slabs marched at once (issue 14, M4).
 //!
 //! `examples/intersecting_patches.surf` takes about a minute (its `dist` products); it runs
 //! with `SURFC_THREADS_ALL=1`. `SURFC_THREADS_STEP` sets the sphere's step (default 0.02,
@@ -118,6 +119,22 @@ fn a_fine_sphere_is_the_same_bytes_for_any_thread_count() {
     let size = same_bytes(&file, &dir, &["obj", "glb", "off"]);
     // At 0.02 the sphere has ≈ 335 k triangles: several chunks of OBJ lines.
     assert!(size > 1_000_000, "{size} bytes of OBJ");
+    // Above 200 k triangles the sphere is marched in two slabs (`survey::pieces`, issue 14
+    // M4): the bytes above are those of a cut mesh, joined watertight.
+    let run = surfc(
+        &["mesh", "sphere.surf", "-o", "s.glb", "--json", "-q"],
+        &dir,
+    );
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).expect("JSON");
+    let m = &json["meshes"][0];
+    if m["triangles"].as_u64().unwrap_or(0) > 250_000 {
+        assert_eq!(m["pieces"].as_u64(), Some(2), "{m}");
+    }
+    assert_eq!(m["boundary_edges"].as_u64(), Some(0), "{m}");
+    assert_eq!(m["non_manifold_edges"].as_u64(), Some(0), "{m}");
+    assert_eq!(m["euler_characteristic"].as_i64(), Some(2), "{m}");
+    assert_eq!(m["components"].as_u64(), Some(1), "{m}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

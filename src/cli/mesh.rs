@@ -21,7 +21,7 @@ use super::report::{CODE_INPUT, CODE_IO, CODE_USAGE, Failure};
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
 use crate::diag::{self, Diagnostic, messages};
 use crate::eval::Engine;
-use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
+use crate::march::{MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::quality::MeshReport;
 use crate::mesh::summary::{
     MeshSummary, Progress, estimate_triangles, format_stats, format_summary,
@@ -32,6 +32,7 @@ use crate::sema::program::{MeshDef, Program, SurfaceRef};
 use crate::solve::surface_point_near;
 use crate::surface::compiled::CompiledSurface;
 use crate::survey::components::{self, Marching, SearchError, SearchSettings};
+use crate::survey::pieces;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MeshFormat {
@@ -116,7 +117,14 @@ struct MeshJson<'a> {
     flipped: bool,
     /// The creases of a mesh made crease by crease, else null.
     creases: Option<CreaseCounts>,
+    /// Slabs marched on separate threads (`survey::pieces`); left out when 1.
+    #[serde(skip_serializing_if = "is_one")]
+    pieces: usize,
     seconds: f64,
+}
+
+fn is_one(n: &usize) -> bool {
+    *n == 1
 }
 
 /// What a mesh made crease by crease (`survey::creases`) has of its creases.
@@ -155,6 +163,9 @@ pub struct Meshed {
     pub flipped: bool,
     /// The creases, when the mesh was made crease by crease.
     pub creases: Option<CreaseCounts>,
+    /// Slabs the component was cut into and marched on separate threads (`survey::pieces`);
+    /// 1 when it was marched whole.
+    pub pieces: usize,
     /// Wall-clock time to build and mesh the block, in seconds.
     pub seconds: f64,
 }
@@ -253,6 +264,7 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
                 warnings: &m.warnings,
                 flipped: m.flipped,
                 creases: m.creases,
+                pieces: m.pieces,
                 seconds: m.seconds,
             })
             .collect();
@@ -592,13 +604,17 @@ fn mesh_block(
         tolerance: def.tolerance,
         uniform: def.uniform,
     };
-    let marched = march::march_verified(&mut surface, &input, &settings, Some(progress))
+    // A large component from a start point is marched in pieces on the pool's threads
+    // (`survey::pieces`); not a surface with creases, whose pieces are its smooth forms.
+    let fork: Option<&components::Fork<'_>> = if creased.is_none() { Some(&fork) } else { None };
+    let pieced = pieces::march(&mut surface, fork, &input, &settings, Some(progress))
         .map_err(|e| failed(&e))?;
+    let marched = pieced.marched;
     if let Some(c) = creased.as_mut() {
         creases::check(c, def, &marched.mesh)?;
     }
     warnings.extend(marched.warnings);
-    Ok(finish(
+    let mut meshed = finish(
         program,
         source,
         def,
@@ -607,7 +623,9 @@ fn mesh_block(
         marched.max_chord_error,
         warnings,
         started,
-    ))
+    );
+    meshed.pieces = pieced.pieces;
+    Ok(meshed)
 }
 
 /// What the user may change when no surface point is found near `start`.
@@ -637,6 +655,7 @@ fn finish(
         warnings,
         flipped: false,
         creases: None,
+        pieces: 1,
         seconds: started.elapsed().as_secs_f64(),
     }
 }

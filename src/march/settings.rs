@@ -83,6 +83,18 @@ pub struct MarchSettings {
     /// A failure caps the local step near it at this fraction of the step its triangle was
     /// made with. Default 0.5.
     pub refine_factor: f64,
+    /// Parallel pieces (`survey::pieces`): a component marched from a start point whose
+    /// estimated triangle count (its area over √3/4·δ², from a coarse survey) is above this is
+    /// cut along planes into slabs marched on separate threads. Default 200 000 (the fine
+    /// sphere of issue 14, 1.34 M triangles, is cut; no gallery example is). `u64::MAX`
+    /// never cuts.
+    pub pieces_above: u64,
+    /// The most slabs a component is cut into: ⌈estimate / `pieces_above`⌉, at least 2 and
+    /// at most this. Default 2: a slab between two planes meets the far plane's polygons
+    /// with its front, where the quality stage sometimes leaves a triangle just under 30° (a
+    /// sphere in four slabs: 29.3°, and the cut is refused; docs/pieces.md). Below 2 nothing
+    /// is cut.
+    pub pieces_max: u32,
 }
 
 impl Default for MarchSettings {
@@ -110,6 +122,8 @@ impl Default for MarchSettings {
             tolerance: 0.1,
             refine_rounds: 4,
             refine_factor: 0.5,
+            pieces_above: 200_000,
+            pieces_max: 2,
         }
     }
 }

@@ -381,7 +381,7 @@ const PROBES: usize = 8;
 /// pieces share), in order of first appearance.
 /// A vertex shared by pieces gets the normalised sum of their normals, which agrees with
 /// every triangle around it wherever the crease is not a fold (normals less than 180° apart).
-fn merge(parts: &[Mesh]) -> Mesh {
+pub(crate) fn merge(parts: &[Mesh]) -> Mesh {
     let mut out = Mesh::default();
     let mut index: HashMap<[u64; 3], u32> = HashMap::new();
     let mut shared = Vec::new();

@@ -8,5 +8,6 @@ pub mod ahead;
 pub mod components;
 pub mod creases;
 pub mod jump;
+pub mod pieces;
 pub mod sizing;
 pub mod spine;

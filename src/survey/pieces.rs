@@ -1,0 +1,651 @@
+//! Parallel pieces (DESIGN.md §4a *Parallel pieces*, issue 14): one large component marched
+//! from a start point is cut along planes into slabs, the cut curves (surface ∩ plane) are
+//! traced once and shared as polygons between the two slabs they separate (the paper's
+//! coherent nets, Sects. 3.9 and 3.11), and each slab is marched on its own thread of the
+//! rayon pool. The slabs are joined by their bit-identical polygon vertices into one mesh.
+//!
+//! 1. Survey: a coarse march (`COARSE` × the step, no quality stage) from the same start
+//!    gives the component's extent, area and topology. Its area over √3/4·step² estimates
+//!    the triangle count; below `MarchSettings::pieces_above` the component is marched
+//!    whole. Otherwise it is cut into n = ⌈estimate / pieces_above⌉ slabs (2 ..=
+//!    `pieces_max`) of equal width along the longest axis of its extent. n depends only on
+//!    the surface and the settings, never on the number of threads.
+//! 2. Cuts: for each plane, the coarse mesh's section (closed polylines) seeds one trace per
+//!    loop (`solve::curve::intersection_with`, the plane as second surface), sampled at the
+//!    smallest local step along the loop. A plane is taken only if every loop closes, follows
+//!    its coarse loop (each within half a coarse step of the other), crosses the plane at 30°
+//!    or more (`CROSS_SINE`), has at least `MIN_LOOP` vertices, and stays a coarse step away
+//!    from the plane's other loops. (Where the survey fails at `COARSE` steps, it is made
+//!    at half that.) Else the plane is shifted (`SHIFTS` of the slab width),
+//!    then the next axis is tried, then the component is marched whole.
+//! 3. Pieces: slab k marches with the loops of its upper plane as traced (the traced
+//!    direction ∇f × e_axis has the side below the plane on its left) and those of its lower
+//!    plane reversed, the first as front, the rest as bounds; each on a fresh oracle from the
+//!    fork, so its mesh is the same whichever thread runs it. Every piece is verified by the
+//!    marcher as usual.
+//! 4. Join: every vertex of a piece lies in its slab, the joined mesh is closed, oriented,
+//!    one component, with the coarse mesh's Euler characteristic, no two triangles near a
+//!    plane cross, and no triangle at a cut polygon is below `CUT_ANGLE` (unless the mesh
+//!    has a smaller angle away from the cuts too: the cut must not be the worst place).
+//!    Anything else, or any failure on the way, marches the component whole
+//!    (as before this stage): a cut is an optimisation and never decides what the mesh is.
+//!
+//! Deterministic: planes, loops, pieces and the join follow fixed orders; results are taken
+//! in slab order.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::components::Fork;
+use super::creases::merge;
+use super::sizing::Sizing;
+use crate::march::{self, MarchError, MarchInput, MarchSettings, Marched, Start};
+use crate::mesh::Mesh;
+use crate::mesh::check::intersecting_pairs;
+use crate::mesh::topology::topology;
+use crate::solve::SurfacePoint;
+use crate::solve::curve::{self, CurveError};
+use crate::solve::surfacepoint::tangent_frame;
+use crate::solve::tolerance::CurveTolerance;
+use crate::surface::{NativeSurface, Surface, ValueGrad};
+
+/// The coarse survey marches at this many steps.
+pub const COARSE: f64 = 8.0;
+/// The coarse survey stops (and nothing is cut) above this many triangles.
+const COARSE_LIMIT: u64 = 200_000;
+/// A cut loop must cross its plane at 30° or more: |n × e_axis| ≥ 0.5 at every vertex. Near
+/// a tangent contact the fronts on either side would leave their slab.
+pub const CROSS_SINE: f64 = 0.5;
+/// The fewest vertices of a cut loop (a tiny loop is refused).
+pub const MIN_LOOP: usize = 8;
+/// Positions tried for a plane, as fractions of the slab width from its place.
+const SHIFTS: [f64; 5] = [0.0, 0.1, -0.1, 0.2, -0.2];
+/// A piece's vertex may be this far (× step) beyond its slab's planes (the cut vertices lie
+/// on the planes to rounding).
+const SLAB_MARGIN: f64 = 1e-6;
+/// The quality bar at the cut polygons (DESIGN.md §6, degrees): a triangle there below it,
+/// and below every triangle away from the cuts, refuses the cut.
+pub const CUT_ANGLE: f64 = 30.0;
+/// Triangles within this many steps of a plane are checked for crossings across pieces.
+const BAND: f64 = 3.0;
+
+/// A component marched whole or in pieces.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pieced {
+    pub marched: Marched,
+    /// Slabs marched: 1 when the component was marched whole.
+    pub pieces: usize,
+    /// The cut polygons, each shared by two slabs (as traced: the slab below on its left).
+    pub cuts: Vec<Vec<DVec3>>,
+    /// The axis cut across (0, 1, 2 for x, y, z) and the planes' positions along it.
+    pub planes: Option<(usize, Vec<f64>)>,
+}
+
+/// Why a component was marched whole; only for the trace.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum NoCut {
+    #[error("no fresh oracle of the surface")]
+    Fork,
+    #[error("the coarse survey failed: {0}")]
+    Coarse(MarchError),
+    #[error("the coarse survey is not one closed surface")]
+    CoarseOpen,
+    #[error("the coarse section at {at} along axis {axis} does not close into loops")]
+    Section { axis: usize, at: f64 },
+    #[error("no plane across axis {axis} near {at} can be cut reliably: {why}")]
+    Plane {
+        axis: usize,
+        at: f64,
+        why: &'static str,
+    },
+    #[error("a cut curve could not be traced: {0}")]
+    Trace(CurveError),
+    #[error("piece {piece}: {source}")]
+    Piece { piece: usize, source: MarchError },
+    #[error("piece {piece} reaches {at}, beyond its slab")]
+    Slab { piece: usize, at: DVec3 },
+    #[error("the pieces do not join into one closed surface: {0}")]
+    Joined(&'static str),
+    #[error(
+        "a triangle at a cut polygon has a smallest angle of {degrees:.2}°, below 30° and below every triangle away from the cuts"
+    )]
+    Angle { degrees: f64 },
+    #[error("the pieces have {total} triangles, more than the limit {limit}")]
+    Limit { total: u64, limit: u64 },
+}
+
+/// The cut of one plane: its position and loops (as traced).
+#[derive(Clone, Debug)]
+struct Cut {
+    at: f64,
+    loops: Vec<Vec<DVec3>>,
+}
+
+/// Marches `input` as `march::march_verified` does; a large component from a start point
+/// (no bounds, no box, not uniform) with a `fork` is cut into slabs marched on the rayon pool
+/// as the module documentation says. Errors are those of the whole march: a component that
+/// cannot be cut, or whose pieces fail, is marched whole.
+pub fn march(
+    surface: &mut dyn Surface,
+    fork: Option<&Fork<'_>>,
+    input: &MarchInput,
+    settings: &MarchSettings,
+    progress: Option<&AtomicU64>,
+) -> Result<Pieced, MarchError> {
+    let trace = std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0");
+    let eligible = matches!(input.start, Start::Point(_))
+        && input.bounds.is_empty()
+        && input.bbox.is_none()
+        && !input.uniform
+        && settings.pieces_max >= 2;
+    if let (Some(fork), true) = (fork, eligible) {
+        let started = std::time::Instant::now();
+        let pieced = plan(fork, input, settings).and_then(|p| match p {
+            Some((axis, cuts, chi)) => {
+                if trace {
+                    eprintln!(
+                        "pieces: survey and cuts {:.3} s",
+                        started.elapsed().as_secs_f64()
+                    );
+                }
+                march_pieces(fork, input, settings, axis, &cuts, chi).map(Some)
+            }
+            None => Ok(None),
+        });
+        match pieced {
+            Ok(Some(pieced)) => {
+                if trace {
+                    eprintln!(
+                        "pieces: {} piece(s) across axis {} at {:?}, {} cut loop(s), {} triangles, {:.3} s",
+                        pieced.pieces,
+                        pieced.planes.as_ref().map_or(0, |p| p.0),
+                        pieced.planes.as_ref().map_or(&[][..], |p| &p.1[..]),
+                        pieced.cuts.len(),
+                        pieced.marched.mesh.triangles.len(),
+                        started.elapsed().as_secs_f64()
+                    );
+                }
+                if let Some(p) = progress {
+                    p.store(
+                        pieced.marched.mesh.triangles.len() as u64,
+                        Ordering::Relaxed,
+                    );
+                }
+                return Ok(pieced);
+            }
+            Ok(None) => {}
+            Err(why) => {
+                if trace {
+                    eprintln!(
+                        "pieces: marched whole: {why} ({:.3} s)",
+                        started.elapsed().as_secs_f64()
+                    );
+                }
+            }
+        }
+    }
+    let marched = march::march_verified(surface, input, settings, progress)?;
+    Ok(Pieced {
+        marched,
+        pieces: 1,
+        cuts: Vec::new(),
+        planes: None,
+    })
+}
+
+/// The coarse survey and the cuts: None when the component is small enough to march whole,
+/// else the axis, the cuts in increasing position and the coarse mesh's Euler characteristic.
+fn plan(
+    fork: &Fork<'_>,
+    input: &MarchInput,
+    settings: &MarchSettings,
+) -> Result<Option<(usize, Vec<Cut>, i64)>, NoCut> {
+    let step = input.step;
+    let mut s = fork().ok_or(NoCut::Fork)?;
+    let coarse_input = MarchInput {
+        step: COARSE * step,
+        start: input.start.clone(),
+        bounds: Vec::new(),
+        bbox: None,
+        max_triangles: Some(COARSE_LIMIT),
+        tolerance: None,
+        uniform: false,
+    };
+    let coarse_settings = MarchSettings {
+        quality_angle: 0.0,
+        ..*settings
+    };
+    // At `COARSE` steps, and where the surface has features too small for that (the survey
+    // fails), at half of it.
+    let (coarse, coarse_step) =
+        match march::march_verified(&mut s, &coarse_input, &coarse_settings, None) {
+            Ok(m) => (m.mesh, coarse_input.step),
+            Err(_) => {
+                let finer = MarchInput {
+                    step: 0.5 * COARSE * step,
+                    ..coarse_input
+                };
+                let m = march::march_verified(&mut s, &finer, &coarse_settings, None)
+                    .map_err(NoCut::Coarse)?;
+                (m.mesh, finer.step)
+            }
+        };
+    let area: f64 = coarse
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|k| coarse.vertices[k as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum();
+    let estimate = area / (0.25 * 3f64.sqrt() * step * step);
+    // A NaN area (a survey vertex not finite) cuts nothing either.
+    if estimate.is_nan() || estimate <= settings.pieces_above as f64 {
+        return Ok(None);
+    }
+    let topo = topology(&coarse);
+    if !topo.is_closed_and_oriented() || topo.components != 1 {
+        return Err(NoCut::CoarseOpen);
+    }
+    let n = ((estimate / settings.pieces_above.max(1) as f64).ceil() as usize)
+        .clamp(2, settings.pieces_max.max(2) as usize);
+    let (lo, hi) = coarse.vertices.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), &v| (lo.min(v), hi.max(v)),
+    );
+    let extent = hi - lo;
+    let mut axes = [0usize, 1, 2];
+    axes.sort_by(|&a, &b| extent[b].total_cmp(&extent[a]));
+    let tolerance = input.tolerance.unwrap_or(settings.tolerance * step);
+    let sizing = Sizing::of_mesh(step, tolerance, false, settings.sizing);
+    let mut last = NoCut::Fork;
+    'axes: for axis in axes {
+        let width = extent[axis] / n as f64;
+        let mut cuts = Vec::with_capacity(n - 1);
+        for k in 1..n {
+            let base = lo[axis] + k as f64 * width;
+            let mut found = None;
+            for shift in SHIFTS {
+                let at = base + shift * width;
+                match cut(
+                    &mut s,
+                    &coarse,
+                    coarse_step,
+                    axis,
+                    at,
+                    step,
+                    settings,
+                    &sizing,
+                ) {
+                    Ok(loops) => {
+                        found = Some(Cut { at, loops });
+                        break;
+                    }
+                    Err(e) => last = e,
+                }
+            }
+            match found {
+                Some(c) => cuts.push(c),
+                None => continue 'axes,
+            }
+        }
+        return Ok(Some((axis, cuts, topo.euler_characteristic)));
+    }
+    Err(last)
+}
+
+/// The plane's cut loops, traced from the coarse section and checked as the module
+/// documentation says.
+// The survey (oracle, mesh and its step), the plane, and what the loops are sampled for.
+#[allow(clippy::too_many_arguments)]
+fn cut(
+    s: &mut dyn Surface,
+    coarse: &Mesh,
+    coarse_step: f64,
+    axis: usize,
+    at: f64,
+    step: f64,
+    settings: &MarchSettings,
+    sizing: &Sizing,
+) -> Result<Vec<Vec<DVec3>>, NoCut> {
+    let refuse = |why| NoCut::Plane { axis, at, why };
+    let sections = section(coarse, axis, at).ok_or(NoCut::Section { axis, at })?;
+    if sections.is_empty() {
+        return Err(refuse("the plane misses the surface"));
+    }
+    let mut e = DVec3::ZERO;
+    e[axis] = 1.0;
+    let mut plane = NativeSurface(move |p: DVec3| ValueGrad {
+        value: p[axis] - at,
+        gradient: e,
+    });
+    let tol = CurveTolerance::default();
+    let reach = 0.5 * coarse_step;
+    let mut loops: Vec<Vec<DVec3>> = Vec::with_capacity(sections.len());
+    for coarse_loop in &sections {
+        let seed = coarse_loop[0];
+        let mut h = step;
+        let mut traced = Vec::new();
+        // At the step, then (where the local step is smaller along the loop) at the smallest
+        // local step along it.
+        for _ in 0..2 {
+            let polygon = curve::intersection_with(s, &mut plane, seed, h, None, &tol)
+                .map_err(NoCut::Trace)?;
+            if !polygon.closed {
+                return Err(refuse("a cut curve does not close"));
+            }
+            traced = polygon.points;
+            let local = traced
+                .iter()
+                .map(|&p| local_step(s, sizing, p))
+                .fold(step, f64::min);
+            if local >= 0.98 * h {
+                break;
+            }
+            if local < 1.25 * settings.polygon_edge_min * step {
+                return Err(refuse("the local step along a cut curve is too small"));
+            }
+            h = local;
+        }
+        if traced.len() < MIN_LOOP {
+            return Err(refuse("a cut loop is tiny"));
+        }
+        for &p in &traced {
+            let g = s.value_gradient(p).gradient;
+            let sine = g.normalize_or_zero().cross(e).length();
+            if sine.is_nan() || sine < CROSS_SINE {
+                return Err(refuse("the surface meets the plane at less than 30°"));
+            }
+        }
+        if !follows(&traced, coarse_loop, reach) || !follows(coarse_loop, &traced, reach) {
+            return Err(refuse("a traced loop does not follow its coarse section"));
+        }
+        loops.push(traced);
+    }
+    for (i, a) in loops.iter().enumerate() {
+        for b in &loops[i + 1..] {
+            let near = a
+                .iter()
+                .any(|p| b.iter().any(|q| p.distance(*q) < coarse_step));
+            if near {
+                return Err(refuse("two cut loops come closer than a coarse step"));
+            }
+        }
+    }
+    Ok(loops)
+}
+
+/// The local step at a point on the surface.
+fn local_step(s: &mut dyn Surface, sizing: &Sizing, p: DVec3) -> f64 {
+    let normal = s.value_gradient(p).gradient.normalize_or_zero();
+    if normal == DVec3::ZERO {
+        return 0.0;
+    }
+    let (t1, t2) = tangent_frame(normal);
+    let sp = SurfacePoint {
+        point: p,
+        normal,
+        t1,
+        t2,
+    };
+    sizing.size(s, &sp, None).h
+}
+
+/// Every vertex of `a` within `reach` of the closed polyline `b`.
+fn follows(a: &[DVec3], b: &[DVec3], reach: f64) -> bool {
+    a.iter().all(|&p| {
+        (0..b.len()).any(|i| {
+            let (u, v) = (b[i], b[(i + 1) % b.len()]);
+            let d = v - u;
+            let t = if d.length_squared() > 0.0 {
+                ((p - u).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (u + t * d).distance(p) <= reach
+        })
+    })
+}
+
+/// The section of a closed, oriented mesh with the plane `p[axis] = at`: closed polylines,
+/// one point on each edge from a vertex below to one at or above the plane; None where the
+/// segments do not chain into loops.
+fn section(mesh: &Mesh, axis: usize, at: f64) -> Option<Vec<Vec<DVec3>>> {
+    let above = |k: u32| mesh.vertices[k as usize][axis] >= at;
+    // Per crossed triangle: the edge where the section leaves it (walking its edges in
+    // order, from above to below) → the edge where it enters (below to above). In a closed,
+    // oriented mesh each crossed edge enters one triangle and leaves its neighbour.
+    let mut next: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
+    let mut order = Vec::new();
+    let key = |a: u32, b: u32| (a.min(b), a.max(b));
+    for t in &mesh.triangles {
+        let (mut leave, mut enter) = (None, None);
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            match (above(a), above(b)) {
+                (true, false) => leave = Some(key(a, b)),
+                (false, true) => enter = Some(key(a, b)),
+                _ => {}
+            }
+        }
+        if let (Some(l), Some(e)) = (leave, enter) {
+            if next.insert(l, e).is_some() {
+                return None;
+            }
+            order.push(l);
+        }
+    }
+    let point = |(a, b): (u32, u32)| {
+        let (p, q) = (mesh.vertices[a as usize], mesh.vertices[b as usize]);
+        let w = (at - p[axis]) / (q[axis] - p[axis]);
+        p.lerp(q, w)
+    };
+    let mut done: HashMap<(u32, u32), ()> = HashMap::new();
+    let mut loops = Vec::new();
+    for first in order {
+        if done.contains_key(&first) {
+            continue;
+        }
+        let mut ring = Vec::new();
+        let mut e = first;
+        loop {
+            done.insert(e, ());
+            ring.push(point(e));
+            e = *next.get(&e)?;
+            if e == first {
+                break;
+            }
+            if done.contains_key(&e) {
+                return None;
+            }
+        }
+        loops.push(ring);
+    }
+    Some(loops)
+}
+
+/// Marches the slabs between the cuts on the rayon pool and joins them (module doc 3, 4).
+fn march_pieces(
+    fork: &Fork<'_>,
+    input: &MarchInput,
+    settings: &MarchSettings,
+    axis: usize,
+    cuts: &[Cut],
+    chi: i64,
+) -> Result<Pieced, NoCut> {
+    let n = cuts.len() + 1;
+    let inputs: Vec<MarchInput> = (0..n)
+        .map(|k| {
+            // The upper plane's loops as traced (this slab below them), the lower plane's
+            // reversed.
+            let mut loops: Vec<Vec<DVec3>> = Vec::new();
+            if let Some(c) = cuts.get(k) {
+                loops.extend(c.loops.iter().cloned());
+            }
+            if k > 0 {
+                loops.extend(cuts[k - 1].loops.iter().map(|l| {
+                    let mut r = l.clone();
+                    r.reverse();
+                    r
+                }));
+            }
+            let front = loops.remove(0);
+            MarchInput {
+                step: input.step,
+                start: Start::Front(front),
+                bounds: loops,
+                bbox: None,
+                max_triangles: input.max_triangles,
+                tolerance: input.tolerance,
+                uniform: false,
+            }
+        })
+        .collect();
+    let marched: Vec<Result<Marched, NoCut>> = inputs
+        .par_iter()
+        .enumerate()
+        .map(|(piece, inp)| {
+            let mut s = fork().ok_or(NoCut::Fork)?;
+            march::march_verified(&mut s, inp, settings, None)
+                .map_err(|source| NoCut::Piece { piece, source })
+        })
+        .collect();
+    let mut marched = marched.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let joining = std::time::Instant::now();
+    let margin = SLAB_MARGIN * input.step;
+    for (piece, m) in marched.iter().enumerate() {
+        let below = piece.checked_sub(1).map(|k| cuts[k].at - margin);
+        let above = cuts.get(piece).map(|c| c.at + margin);
+        if let Some(&at) = m
+            .mesh
+            .vertices
+            .iter()
+            .find(|v| below.is_some_and(|b| v[axis] < b) || above.is_some_and(|a| v[axis] > a))
+        {
+            return Err(NoCut::Slab { piece, at });
+        }
+    }
+    let total: u64 = marched.iter().map(|m| m.mesh.triangles.len() as u64).sum();
+    let limit = input.max_triangles.unwrap_or(settings.max_triangles);
+    if total > limit {
+        return Err(NoCut::Limit { total, limit });
+    }
+    let parts: Vec<Mesh> = marched
+        .iter_mut()
+        .map(|m| std::mem::take(&mut m.mesh))
+        .collect();
+    let mesh = merge(&parts);
+    let topo = topology(&mesh);
+    if !topo.is_closed_and_oriented() {
+        return Err(NoCut::Joined(
+            "an edge is open, in more than two triangles or misoriented",
+        ));
+    }
+    if topo.components != 1 {
+        return Err(NoCut::Joined("more than one component"));
+    }
+    if topo.euler_characteristic != chi {
+        return Err(NoCut::Joined(
+            "the Euler characteristic differs from the survey's",
+        ));
+    }
+    let planes: Vec<f64> = cuts.iter().map(|c| c.at).collect();
+    if !band(&mesh, axis, &planes, BAND * input.step).is_empty() {
+        return Err(NoCut::Joined("triangles of two pieces cross"));
+    }
+    // Away from the cuts only when a triangle at them is below the bar.
+    let on = on_cuts(&mesh, cuts);
+    let at_cuts = smallest_angle(&mesh, &on, true);
+    let bar = CUT_ANGLE.to_radians();
+    if at_cuts < bar && at_cuts < smallest_angle(&mesh, &on, false) {
+        return Err(NoCut::Angle {
+            degrees: at_cuts.to_degrees(),
+        });
+    }
+    if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
+        eprintln!(
+            "pieces: joined and checked in {:.3} s",
+            joining.elapsed().as_secs_f64()
+        );
+    }
+    let mut warnings = Vec::new();
+    for m in &marched {
+        for w in &m.warnings {
+            if !warnings.contains(w) {
+                warnings.push(w.clone());
+            }
+        }
+    }
+    Ok(Pieced {
+        marched: Marched {
+            mesh,
+            max_chord_error: marched
+                .iter()
+                .map(|m| m.max_chord_error)
+                .fold(0.0, f64::max),
+            warnings,
+            refinements: marched.iter().map(|m| m.refinements).max().unwrap_or(0),
+            peak_triangles: marched.iter().map(|m| m.peak_triangles).sum(),
+        },
+        pieces: n,
+        cuts: cuts.iter().flat_map(|c| c.loops.iter().cloned()).collect(),
+        planes: Some((axis, planes)),
+    })
+}
+
+/// Which vertices of `mesh` are cut polygon vertices.
+fn on_cuts(mesh: &Mesh, cuts: &[Cut]) -> Vec<bool> {
+    let bits = |p: &DVec3| p.to_array().map(f64::to_bits);
+    let cut: std::collections::HashSet<[u64; 3]> = cuts
+        .iter()
+        .flat_map(|c| c.loops.iter().flatten())
+        .map(bits)
+        .collect();
+    mesh.vertices
+        .iter()
+        .map(|p| cut.contains(&bits(p)))
+        .collect()
+}
+
+/// The smallest angle (radians) of the triangles with a corner on a cut polygon (`at_cuts`),
+/// or of the others.
+fn smallest_angle(mesh: &Mesh, on: &[bool], at_cuts: bool) -> f64 {
+    mesh.triangles
+        .iter()
+        .filter(|t| t.iter().any(|&k| on[k as usize]) == at_cuts)
+        .map(|t| {
+            let v = t.map(|k| mesh.vertices[k as usize]);
+            (0..3)
+                .map(|k| (v[(k + 1) % 3] - v[k]).angle_between(v[(k + 2) % 3] - v[k]))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The crossing pairs among the triangles with a vertex within `reach` of a plane: where the
+/// pieces meet (each piece's own crossings were checked by its verification).
+fn band(mesh: &Mesh, axis: usize, planes: &[f64], reach: f64) -> Vec<[u32; 2]> {
+    let near = |k: u32| {
+        let x = mesh.vertices[k as usize][axis];
+        planes.iter().any(|&at| (x - at).abs() <= reach)
+    };
+    let mut ids: HashMap<u32, u32> = HashMap::new();
+    let mut sub = Mesh::default();
+    for t in &mesh.triangles {
+        if !t.iter().any(|&k| near(k)) {
+            continue;
+        }
+        let tri = t.map(|k| {
+            *ids.entry(k).or_insert_with(|| {
+                sub.vertices.push(mesh.vertices[k as usize]);
+                sub.normals.push(mesh.normals[k as usize]);
+                (sub.vertices.len() - 1) as u32
+            })
+        });
+        sub.triangles.push(tri);
+    }
+    intersecting_pairs(&sub)
+}
