@@ -33,7 +33,7 @@
 //! Deterministic: planes, loops, pieces and the join follow fixed orders; results are taken
 //! in slab order.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
@@ -45,6 +45,7 @@ use super::sizing::Sizing;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Marched, Start};
 use crate::mesh::Mesh;
 use crate::mesh::check::intersecting_pairs;
+use crate::mesh::quality;
 use crate::mesh::topology::topology;
 use crate::solve::SurfacePoint;
 use crate::solve::curve::{self, CurveError};
@@ -443,22 +444,22 @@ fn section(mesh: &Mesh, axis: usize, at: f64) -> Option<Vec<Vec<DVec3>>> {
         let w = (at - p[axis]) / (q[axis] - p[axis]);
         p.lerp(q, w)
     };
-    let mut done: HashMap<(u32, u32), ()> = HashMap::new();
+    let mut done: HashSet<(u32, u32)> = HashSet::new();
     let mut loops = Vec::new();
     for first in order {
-        if done.contains_key(&first) {
+        if done.contains(&first) {
             continue;
         }
         let mut ring = Vec::new();
         let mut e = first;
         loop {
-            done.insert(e, ());
+            done.insert(e);
             ring.push(point(e));
             e = *next.get(&e)?;
             if e == first {
                 break;
             }
-            if done.contains_key(&e) {
+            if done.contains(&e) {
                 return None;
             }
         }
@@ -559,11 +560,8 @@ fn march_pieces(
     // Away from the cuts only when a triangle at them is below the bar.
     let on = on_cuts(&mesh, cuts);
     let at_cuts = smallest_angle(&mesh, &on, true);
-    let bar = CUT_ANGLE.to_radians();
-    if at_cuts < bar && at_cuts < smallest_angle(&mesh, &on, false) {
-        return Err(NoCut::Angle {
-            degrees: at_cuts.to_degrees(),
-        });
+    if at_cuts < CUT_ANGLE && at_cuts < smallest_angle(&mesh, &on, false) {
+        return Err(NoCut::Angle { degrees: at_cuts });
     }
     if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
         eprintln!(
@@ -599,7 +597,7 @@ fn march_pieces(
 /// Which vertices of `mesh` are cut polygon vertices.
 fn on_cuts(mesh: &Mesh, cuts: &[Cut]) -> Vec<bool> {
     let bits = |p: &DVec3| p.to_array().map(f64::to_bits);
-    let cut: std::collections::HashSet<[u64; 3]> = cuts
+    let cut: HashSet<[u64; 3]> = cuts
         .iter()
         .flat_map(|c| c.loops.iter().flatten())
         .map(bits)
@@ -610,17 +608,15 @@ fn on_cuts(mesh: &Mesh, cuts: &[Cut]) -> Vec<bool> {
         .collect()
 }
 
-/// The smallest angle (radians) of the triangles with a corner on a cut polygon (`at_cuts`),
-/// or of the others.
+/// The smallest angle (degrees) of the triangles with a corner on a cut polygon
+/// (`at_cuts`), or of the others.
 fn smallest_angle(mesh: &Mesh, on: &[bool], at_cuts: bool) -> f64 {
     mesh.triangles
         .iter()
         .filter(|t| t.iter().any(|&k| on[k as usize]) == at_cuts)
         .map(|t| {
-            let v = t.map(|k| mesh.vertices[k as usize]);
-            (0..3)
-                .map(|k| (v[(k + 1) % 3] - v[k]).angle_between(v[(k + 2) % 3] - v[k]))
-                .fold(f64::INFINITY, f64::min)
+            let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
+            quality::smallest_angle(a, b, c)
         })
         .fold(f64::INFINITY, f64::min)
 }
