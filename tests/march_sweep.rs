@@ -12,7 +12,11 @@
 //! only from it).
 //!
 //! `SURFC_SWEEP=N` runs N shapes (default 60, ~20 s in the test profile; 200 for the full
-//! run); the figures (right, refused, wrong, time) are printed.
+//! run); `SURFC_SWEEP_SEED=S` draws another set of shapes (default the fixed seed below). The
+//! figures (right, refused, wrong, time) are printed, and the quality of the right meshes
+//! against issue 13's bars (smallest angle ≥ 30°, mean radius ratio ≥ 0.97): each mesh's
+//! figures and how many meet each bar. Quality is reported, not asserted, here: the bars are
+//! asserted over the gallery and the march tests.
 
 mod common;
 
@@ -22,6 +26,7 @@ use common::voxel::solid_count;
 use glam::{DMat3, DVec3};
 use surfc::march::{MarchInput, MarchSettings, march_verified};
 use surfc::mesh::check::{Expect, check};
+use surfc::mesh::quality::quality;
 
 /// Log-uniform in [lo, hi].
 fn log_range(rng: &mut Rng, lo: f64, hi: f64) -> f64 {
@@ -124,9 +129,18 @@ fn voxel_view(sh: &Shape) -> Option<(i64, usize, (DVec3, DVec3), f64)> {
 #[derive(Debug, Default)]
 struct Tally {
     right: usize,
+    /// Shapes with no independent check (other seeds only).
+    skipped: usize,
+    /// Right meshes with every angle at 30° or more.
+    angle_bar: usize,
+    /// Right meshes with a mean radius ratio of 0.97 or more.
+    ratio_bar: usize,
     refused: usize,
     wrong: Vec<String>,
 }
+
+/// The shapes of the default run: with it every shape has an independent extent.
+const DEFAULT_SEED: u64 = 0x5EED_0010;
 
 #[test]
 fn generated_shapes_are_meshed_right_or_refused() {
@@ -134,7 +148,11 @@ fn generated_shapes_are_meshed_right_or_refused() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(60);
-    let mut rng = Rng(0x5EED_0010);
+    let seed = std::env::var("SURFC_SWEEP_SEED")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(DEFAULT_SEED);
+    let mut rng = Rng(seed);
     let mut voxel_checked = 0;
     let settings = MarchSettings::default();
     let started = std::time::Instant::now();
@@ -153,7 +171,14 @@ fn generated_shapes_are_meshed_right_or_refused() {
             );
             voxel_checked += 1;
         }
-        assert!(sh.bbox_exact || voxel.is_some(), "{}: no extent", sh.name);
+        if !sh.bbox_exact && voxel.is_none() {
+            // A blob whose neck the voxel grid cannot resolve (another seed than the fixed
+            // one can draw it): no independent extent to check a mesh against.
+            assert!(seed != DEFAULT_SEED, "{}: no extent", sh.name);
+            println!("#{i} {}: skipped: no independent extent", sh.name);
+            tally.skipped += 1;
+            continue;
+        }
         let mut s = sh.surface();
         let input = MarchInput {
             max_triangles: Some(500_000),
@@ -201,11 +226,14 @@ fn generated_shapes_are_meshed_right_or_refused() {
                 if m.max_chord_error > tolerance {
                     bad.push(format!("chord {:.3e}", m.max_chord_error));
                 }
+                let q = quality(&m.mesh);
                 println!(
-                    "{what}: {} triangles, euler {}, {} refinement(s), {:.2} s{}",
+                    "{what}: {} triangles, euler {}, {} refinement(s), smallest angle {:.1}°, mean radius ratio {:.4}, {:.2} s{}",
                     topo.triangles,
                     topo.euler_characteristic,
                     m.refinements,
+                    q.min_angle_deg,
+                    q.radius_ratio_mean,
                     t.elapsed().as_secs_f64(),
                     if bad.is_empty() {
                         String::new()
@@ -215,6 +243,8 @@ fn generated_shapes_are_meshed_right_or_refused() {
                 );
                 if bad.is_empty() {
                     tally.right += 1;
+                    tally.angle_bar += usize::from(q.min_angle_deg >= 30.0);
+                    tally.ratio_bar += usize::from(q.radius_ratio_mean >= 0.97);
                 } else {
                     tally.wrong.push(what);
                 }
@@ -222,11 +252,16 @@ fn generated_shapes_are_meshed_right_or_refused() {
         }
     }
     println!(
-        "sweep of {n}: {} right, {} refused, {} wrong, {:.1} s ({voxel_checked} confirmed by the voxel count)",
+        "sweep of {n}: {} right, {} refused, {} wrong, {} skipped, {:.1} s ({voxel_checked} confirmed by the voxel count)",
         tally.right,
         tally.refused,
         tally.wrong.len(),
+        tally.skipped,
         started.elapsed().as_secs_f64()
+    );
+    println!(
+        "quality of the {} right: {} with every angle ≥ 30°, {} with a mean radius ratio ≥ 0.97",
+        tally.right, tally.angle_bar, tally.ratio_bar
     );
     assert!(tally.wrong.is_empty(), "wrong meshes: {:#?}", tally.wrong);
 }
