@@ -12,7 +12,8 @@
 //! only from it).
 //!
 //! `SURFC_SWEEP=N` runs N shapes (default 60, ~20 s in the test profile; 200 for the full
-//! run); `SURFC_SWEEP_SEED=S` draws another set of shapes (default the fixed seed below). The
+//! run); `SURFC_SWEEP_SEED=S` draws another set of shapes (default the fixed seed below);
+//! `SURFC_SWEEP_ONLY=i` meshes only shape #i of the run (to trace it). The
 //! figures (right, refused, wrong, time) are printed, and the quality of the right meshes
 //! against issue 13's bars (smallest angle ≥ 30°, mean radius ratio ≥ 0.97): each mesh's
 //! figures and how many meet each bar. Quality is reported, not asserted, here: the bars are
@@ -153,6 +154,10 @@ fn generated_shapes_are_meshed_right_or_refused() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(DEFAULT_SEED);
     let mut rng = Rng(seed);
+    // One shape of the run alone (its number as printed), to look at it under SURFC_TRACE.
+    let only: Option<usize> = std::env::var("SURFC_SWEEP_ONLY")
+        .ok()
+        .and_then(|v| v.parse().ok());
     let mut voxel_checked = 0;
     let settings = MarchSettings::default();
     let started = std::time::Instant::now();
@@ -160,6 +165,9 @@ fn generated_shapes_are_meshed_right_or_refused() {
     for i in 0..n {
         let sh = shape(&mut rng, i);
         let step = sh.feature * log_range(&mut rng, 0.25, 4.0);
+        if only.is_some_and(|k| k != i) {
+            continue;
+        }
         let voxel = voxel_view(&sh);
         if let Some((euler, components, _, _)) = voxel {
             // The generator's known topology, confirmed independently of any mesh.

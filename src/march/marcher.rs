@@ -105,29 +105,22 @@ pub(super) fn run<'s>(
         pending: Vec::new(),
         scratch: Vec::new(),
     };
+    // The given polygons' vertices come first and are the fixed points; a start point's
+    // hexagon comes after them, so that its points are ordinary ones: merged or moved like
+    // any other (fixed, a hexagon whose ring the local step graded unevenly kept its 17.7°
+    // triangles through the quality stage).
+    let mut seen = BTreeMap::new();
     let actual = match &input.start {
-        Start::Point(s) => m.hexagon(*s)?,
+        Start::Point(s) => {
+            m.bounds(&input.bounds, &mut seen)?;
+            m.hexagon(*s)?
+        }
         Start::Front(poly) => {
-            let mut seen = BTreeMap::new();
             let f = m.polygon(poly, PolygonRole::Front, &mut seen)?;
-            for (i, b) in input.bounds.iter().enumerate() {
-                let g = m.polygon(b, PolygonRole::Bound(i), &mut seen)?;
-                m.passive.push(g);
-            }
+            m.bounds(&input.bounds, &mut seen)?;
             f
         }
     };
-    if let Start::Front(_) = input.start {
-        m.fixed_points = m.pos.len() as u32;
-    }
-    if let Start::Point(_) = input.start {
-        let mut seen = BTreeMap::new();
-        for (i, b) in input.bounds.iter().enumerate() {
-            let g = m.polygon(b, PolygonRole::Bound(i), &mut seen)?;
-            m.passive.push(g);
-        }
-        m.fixed_points = m.pos.len() as u32;
-    }
     // Bounds were pushed in input order; the first given is tried first when the actual
     // front is done.
     m.passive.reverse();
@@ -353,6 +346,20 @@ impl Marcher<'_> {
             self.update_angle(n);
         }
         Ok(f)
+    }
+
+    /// The bound polygons as passive fronts, after which every point so far is fixed.
+    fn bounds(
+        &mut self,
+        bounds: &[Vec<DVec3>],
+        seen: &mut BTreeMap<[u64; 3], PointId>,
+    ) -> Result<(), MarchError> {
+        for (i, b) in bounds.iter().enumerate() {
+            let g = self.polygon(b, PolygonRole::Bound(i), seen)?;
+            self.passive.push(g);
+        }
+        self.fixed_points = self.pos.len() as u32;
+        Ok(())
     }
 
     /// A given polygon (area to mesh on its left) as a front ring (area to mesh on its
