@@ -42,6 +42,9 @@ pub(super) struct Triangulation {
     pub border: Vec<bool>,
     /// Vertices below this index are polygon vertices (front and bounds).
     pub fixed: usize,
+    /// The given polygons' edges as (lower, higher) vertex index, sorted: the only edges
+    /// between two polygon vertices that may stay open (in one triangle).
+    pub polygon_edges: Vec<[u32; 2]>,
     /// Per vertex: the local step h it was made with.
     pub h: Vec<f64>,
     /// Where the surface asked for a step below the sizing's floor (the first such point).
@@ -93,6 +96,7 @@ pub(super) fn run<'s>(
         triangles: Vec::new(),
         first_tri: Vec::new(),
         fixed_points: 0,
+        polygon_edges: Vec::new(),
         merged: 0,
         rings: Rings::default(),
         angle: Vec::new(),
@@ -159,6 +163,8 @@ struct Marcher<'s> {
     first_tri: Vec<u32>,
     /// Points below this id are polygon vertices: never moved or merged away.
     fixed_points: u32,
+    /// The given polygons' edges, (lower, higher) point id (`Triangulation::polygon_edges`).
+    polygon_edges: Vec<[u32; 2]>,
     /// Points merged into others (`collapse`); dropped from the mesh at the end.
     merged: usize,
     rings: Rings,
@@ -434,6 +440,10 @@ impl Marcher<'_> {
             );
             seen.insert(key, id);
             ids.push(id);
+        }
+        for (i, &a) in ids.iter().enumerate() {
+            let b = ids[(i + 1) % n];
+            self.polygon_edges.push([a.0.min(b.0), a.0.max(b.0)]);
         }
         ids.reverse();
         let (f, nodes) = self.rings.make_ring(&ids);
@@ -1105,7 +1115,11 @@ impl Marcher<'_> {
 
     /// The mesh, without the points merged away by `collapse` (renumbered in order, so
     /// polygon vertices keep their places at the front), with its per-vertex facts.
-    fn into_marched(self) -> Triangulation {
+    fn into_marched(mut self) -> Triangulation {
+        // Polygon points keep their ids below: the renumbering keeps every point below
+        // `fixed_points` and the order.
+        self.polygon_edges.sort_unstable();
+        self.polygon_edges.dedup();
         if self.merged == 0 {
             return Triangulation {
                 mesh: Mesh {
@@ -1115,6 +1129,7 @@ impl Marcher<'_> {
                 },
                 border: self.border,
                 fixed: self.fixed_points as usize,
+                polygon_edges: self.polygon_edges,
                 h: self.h,
                 floored: self.floored,
             };
@@ -1154,6 +1169,7 @@ impl Marcher<'_> {
             },
             border,
             fixed: self.fixed_points as usize,
+            polygon_edges: self.polygon_edges,
             h,
             floored: self.floored,
         }

@@ -1,7 +1,8 @@
 //! The check of a finished triangulation against its surface (DESIGN.md §3, §4a): a mesh that
 //! is not the surface is never returned as success. Checked: every edge in one or two
 //! triangles, an interior edge once each way, an edge in one triangle only where the front
-//! bookkeeping allows one (between polygon vertices or border points on the box), no two
+//! bookkeeping allows one (a given polygon's edge, or between border points on the box and
+//! polygon vertices; never a chord between two polygon vertices), no two
 //! triangles crossing, no triangle facing against ∇f at its corners, and the chord error at
 //! every centroid and edge midpoint within the tolerance.
 //!
@@ -117,7 +118,18 @@ fn against_surface(
     let mut v = Verdict::default();
     // Edges with their uses, in (lo, hi) order (linear: `mesh::edges`).
     let edges = Edges::new(vs.len(), &mesh.triangles);
-    let allowed_open = |k: u32| (k as usize) < m.fixed || m.border[k as usize];
+    // An edge may be open between border points and polygon vertices; between two polygon
+    // vertices only if it is an edge of a given polygon (a missing triangle at a polygon's
+    // corner leaves an open chord between two of them).
+    let fixed = |k: u32| (k as usize) < m.fixed;
+    let may_open = |k: u32| fixed(k) || m.border[k as usize];
+    let allowed_open = |a: u32, b: u32| {
+        if fixed(a) && fixed(b) {
+            m.polygon_edges.binary_search(&[a.min(b), a.max(b)]).is_ok()
+        } else {
+            may_open(a) && may_open(b)
+        }
+    };
     // The chord error at every edge midpoint (in edge order), then at every centroid (in
     // triangle order), evaluated as they come: no list of 2.5 points a triangle is kept.
     let mut chord = |at: DVec3, h: f64, v: &mut Verdict| {
@@ -135,7 +147,7 @@ fn against_surface(
         let at = 0.5 * (vs[a as usize] + vs[b as usize]);
         let h = m.h[a as usize].max(m.h[b as usize]);
         let flaw = match run.len() {
-            1 if !(allowed_open(a) && allowed_open(b)) => Some(Flaw::OpenEdge),
+            1 if !allowed_open(a, b) => Some(Flaw::OpenEdge),
             2 if run[0].forward == run[1].forward => Some(Flaw::Misoriented),
             n if n > 2 => Some(Flaw::NonManifoldEdge),
             _ => None,
@@ -184,5 +196,73 @@ fn chord_error(
         Ok(sp) => sp.point.distance(q),
         // No surface point from here: as far from the surface as it gets.
         Err(_) => f64::INFINITY,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Mesh;
+    use crate::surface::{NativeSurface, ValueGrad};
+
+    /// The plane z = 0 (∇f = +z) and a pentagon 0…4 given as a polygon (fixed), meshed as a
+    /// fan from vertex 0 with `triangles`.
+    fn pentagon(triangles: Vec<[u32; 3]>) -> Verdict {
+        let vertices: Vec<DVec3> = (0..5)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 5.0;
+                DVec3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        let n = vertices.len();
+        let mut polygon_edges: Vec<[u32; 2]> = (0..n as u32)
+            .map(|i| {
+                let j = (i + 1) % n as u32;
+                [i.min(j), i.max(j)]
+            })
+            .collect();
+        polygon_edges.sort_unstable();
+        let m = Triangulation {
+            mesh: Mesh {
+                normals: vec![DVec3::Z; n],
+                vertices,
+                triangles,
+            },
+            border: vec![false; n],
+            fixed: n,
+            polygon_edges,
+            h: vec![1.0; n],
+            floored: None,
+        };
+        let mut plane = NativeSurface(|p: DVec3| ValueGrad {
+            value: p.z,
+            gradient: DVec3::Z,
+        });
+        verify(&mut plane, &m, 0.1, 1.0, &SurfacePointTolerance::default())
+    }
+
+    #[test]
+    fn a_polygon_meshed_whole_has_only_its_own_edges_open() {
+        let v = pentagon(vec![[0, 1, 2], [0, 2, 3], [0, 3, 4]]);
+        assert!(v.wrong.is_empty(), "{:?}", v.wrong);
+    }
+
+    #[test]
+    fn a_triangle_missing_at_a_polygon_corner_is_an_open_edge() {
+        // Without the triangle (0, 3, 4) the chord 0–3 between two polygon vertices is open:
+        // polygon vertices at both ends do not make it allowed.
+        let v = pentagon(vec![[0, 1, 2], [0, 2, 3]]);
+        let open: Vec<_> = v
+            .wrong
+            .iter()
+            .filter(|f| f.flaw == Flaw::OpenEdge)
+            .collect();
+        assert_eq!(open.len(), 1, "{:?}", v.wrong);
+        let chord_middle = 0.5
+            * (DVec3::new(1.0, 0.0, 0.0) + {
+                let a = 3.0 * std::f64::consts::TAU / 5.0;
+                DVec3::new(a.cos(), a.sin(), 0.0)
+            });
+        assert!(open[0].at.distance(chord_middle) < 1e-12, "{:?}", open[0]);
     }
 }
