@@ -144,6 +144,7 @@ fn ends_cleanly(name: &str, s: &mut dyn Surface, input: &MarchInput) {
             let at = match e {
                 MarchError::NewPoint { near, .. } => near,
                 MarchError::TooManyTriangles { at, .. } | MarchError::Stalled { at, .. } => at,
+                MarchError::Refining { at, .. } => at,
                 MarchError::Start { start, .. } => start,
                 other => panic!("{name}: unexpected error {other:?}"),
             };

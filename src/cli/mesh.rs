@@ -663,6 +663,7 @@ fn finish(
 /// What the user may change when the marcher stops with `e`.
 fn march_help(e: &MarchError) -> Option<&'static str> {
     Some(match e {
+        MarchError::Refining { source, .. } => return march_help(source),
         MarchError::TooManyTriangles { .. } => {
             "raise `max_triangles` if the surface is this large at this step; else look where the front was last advanced: a smaller `step` there, or a `box` around the part to mesh"
         }

@@ -213,6 +213,17 @@ pub enum MarchError {
         count: usize,
         rounds: u32,
     },
+    #[error(
+        "the mesh was not the surface near {at} ({flaw}), and re-marching it with a finer local step there failed (refinement {rounds}): {source}"
+    )]
+    Refining {
+        /// The first flaw of the verification that asked for the re-march.
+        flaw: Flaw,
+        at: DVec3,
+        rounds: u32,
+        /// Why the re-march stopped.
+        source: Box<MarchError>,
+    },
 }
 
 /// Triangulates `surface` as `input` says (paper Sect. 2), verified (see [`march_verified`]).
@@ -247,8 +258,23 @@ pub fn march_verified(
     let mut sizing = Sizing::of_mesh(step, tolerance, input.uniform, settings.sizing);
     let mut round = 0;
     let mut peak_triangles = 0;
+    // The first flaw that asked for the current re-march: a re-march that fails says what it
+    // was refining for (else a runaway re-march reads as a surface too large for its step).
+    let mut refining: Option<verify::Found> = None;
     loop {
-        let mut marched = marcher::run(surface, input, settings, &sizing, progress)?;
+        let marched = marcher::run(surface, input, settings, &sizing, progress);
+        let mut marched = match (marched, refining) {
+            (Ok(m), _) => m,
+            (Err(source), Some(first)) => {
+                return Err(MarchError::Refining {
+                    flaw: first.flaw,
+                    at: first.at,
+                    rounds: round,
+                    source: Box::new(source),
+                });
+            }
+            (Err(e), None) => return Err(e),
+        };
         peak_triangles = peak_triangles.max(marched.mesh.triangles.len() as u64);
         improve(surface, &mut marched, input, settings, tolerance);
         let verdict = verify::verify(surface, &marched, tolerance, step, &settings.surface_point);
@@ -295,6 +321,7 @@ pub fn march_verified(
             at: f.at,
             size: settings.refine_factor * f.h,
         }));
+        refining = Some(flaws[0]);
         round += 1;
     }
 }
