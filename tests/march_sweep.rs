@@ -140,24 +140,21 @@ struct Tally {
     wrong: Vec<String>,
 }
 
+/// The number in the environment variable `name`, if it is set and one.
+fn env_number<T: std::str::FromStr>(name: &str) -> Option<T> {
+    std::env::var(name).ok()?.parse().ok()
+}
+
 /// The shapes of the default run: with it every shape has an independent extent.
 const DEFAULT_SEED: u64 = 0x5EED_0010;
 
 #[test]
 fn generated_shapes_are_meshed_right_or_refused() {
-    let n: usize = std::env::var("SURFC_SWEEP")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(60);
-    let seed = std::env::var("SURFC_SWEEP_SEED")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(DEFAULT_SEED);
+    let n: usize = env_number("SURFC_SWEEP").unwrap_or(60);
+    let seed = env_number("SURFC_SWEEP_SEED").unwrap_or(DEFAULT_SEED);
     let mut rng = Rng(seed);
     // One shape of the run alone (its number as printed), to look at it under SURFC_TRACE.
-    let only: Option<usize> = std::env::var("SURFC_SWEEP_ONLY")
-        .ok()
-        .and_then(|v| v.parse().ok());
+    let only: Option<usize> = env_number("SURFC_SWEEP_ONLY");
     let mut voxel_checked = 0;
     let settings = MarchSettings::default();
     let started = std::time::Instant::now();

@@ -262,19 +262,18 @@ pub fn march_verified(
     // was refining for (else a runaway re-march reads as a surface too large for its step).
     let mut refining: Option<verify::Found> = None;
     loop {
-        let marched = marcher::run(surface, input, settings, &sizing, progress);
-        let mut marched = match (marched, refining) {
-            (Ok(m), _) => m,
-            (Err(source), Some(first)) => {
-                return Err(MarchError::Refining {
-                    flaw: first.flaw,
-                    at: first.at,
-                    rounds: round,
-                    source: Box::new(source),
-                });
-            }
-            (Err(e), None) => return Err(e),
-        };
+        let mut marched =
+            marcher::run(surface, input, settings, &sizing, progress).map_err(|source| {
+                match refining {
+                    Some(first) => MarchError::Refining {
+                        flaw: first.flaw,
+                        at: first.at,
+                        rounds: round,
+                        source: Box::new(source),
+                    },
+                    None => source,
+                }
+            })?;
         peak_triangles = peak_triangles.max(marched.mesh.triangles.len() as u64);
         improve(surface, &mut marched, input, settings, tolerance);
         let verdict = verify::verify(surface, &marched, tolerance, step, &settings.surface_point);
