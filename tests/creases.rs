@@ -741,7 +741,8 @@ fn compare(tree: &Tree, meshed: &Meshed, step: f64, grid: &Grid) -> Outcome {
 /// every vertex on the surface by the tree's own function, watertight, oriented, no crossing
 /// triangles — or is refused with E0601. Never a wrong mesh reported as success. Default 8
 /// cases (about 30 s); `SURFC_CSG_CASES=200` for a larger run, `SURFC_CSG_DUMP=DIR` to keep
-/// the refused and wrong cases' sources, `SURFC_CSG_ONLY=K` to run case K alone.
+/// the refused and wrong cases' sources, `SURFC_CSG_ONLY=K` to run case K alone, `SURFC_CSG_STEP=H` to mesh at another step
+/// than 0.1.
 #[test]
 fn random_csg_trees_mesh_right_or_refuse() {
     random_csg(false, 0x9E37_79B9_7F4A_7C15, 8);
@@ -765,7 +766,10 @@ fn random_csg(smooth: bool, seed: u64, default_cases: usize) {
         .and_then(|s| s.parse().ok())
         .unwrap_or(default_cases);
     let started = std::time::Instant::now();
-    let step = 0.1;
+    let step: f64 = std::env::var("SURFC_CSG_STEP")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.1);
     let (lo, hi) = (DVec3::splat(-2.5), DVec3::splat(2.5));
     // The reference's first grid; its creases are rounded to two voxels.
     let voxel = 0.025;

@@ -143,13 +143,14 @@ pub fn mesh_and_check(name: &str, surface: &mut Boxed, input: &MarchInput, expec
     let (topo, violations) = check(&mesh, Some(surface.as_mut()), &expect);
     let q = quality(&mesh);
     println!(
-        "{name:<28} triangles {:>7}  euler {:>3}  loops {}  min angle {:5.1}°  1% {:5.1}°  median {:5.1}°  edges {:.3}/{:.3}/{:.3}·δ",
+        "{name:<28} triangles {:>7}  euler {:>3}  loops {}  min angle {:5.1}°  1% {:5.1}°  median {:5.1}°  radius ratio {:.4}  edges {:.3}/{:.3}/{:.3}·δ",
         topo.triangles,
         topo.euler_characteristic,
         topo.boundary_loops.len(),
         q.min_angle_deg,
         q.p1_angle_deg,
         q.median_angle_deg,
+        q.radius_ratio_mean,
         q.min_edge / input.step,
         q.mean_edge / input.step,
         q.max_edge / input.step,
