@@ -51,6 +51,47 @@ pub(super) struct Triangulation {
     pub floored: Option<DVec3>,
 }
 
+impl Triangulation {
+    /// Drops the vertices no triangle uses (merged away by Step 3's collapse or removed by
+    /// the quality stage), renumbering the others in order. Polygon vertices stay even if
+    /// unused (a bound never reached), so they keep their indices below `fixed` and
+    /// `polygon_edges` stays valid.
+    pub fn drop_unused(&mut self) {
+        let n = self.mesh.vertices.len();
+        let mut used = vec![false; n];
+        for t in &self.mesh.triangles {
+            for &v in t {
+                used[v as usize] = true;
+            }
+        }
+        for u in used.iter_mut().take(self.fixed) {
+            *u = true;
+        }
+        if used.iter().all(|&u| u) {
+            return;
+        }
+        let mut map = vec![u32::MAX; n];
+        let mut kept = 0;
+        for i in 0..n {
+            if used[i] {
+                map[i] = kept as u32;
+                self.mesh.vertices[kept] = self.mesh.vertices[i];
+                self.mesh.normals[kept] = self.mesh.normals[i];
+                self.border[kept] = self.border[i];
+                self.h[kept] = self.h[i];
+                kept += 1;
+            }
+        }
+        self.mesh.vertices.truncate(kept);
+        self.mesh.normals.truncate(kept);
+        self.border.truncate(kept);
+        self.h.truncate(kept);
+        for t in &mut self.mesh.triangles {
+            *t = t.map(|v| map[v as usize]);
+        }
+    }
+}
+
 pub(super) fn run<'s>(
     surface: &'s mut dyn Surface,
     input: &MarchInput,
@@ -1120,59 +1161,22 @@ impl Marcher<'_> {
         // `fixed_points` and the order.
         self.polygon_edges.sort_unstable();
         self.polygon_edges.dedup();
-        if self.merged == 0 {
-            return Triangulation {
-                mesh: Mesh {
-                    vertices: self.pos,
-                    normals: self.normal,
-                    triangles: self.triangles,
-                },
-                border: self.border,
-                fixed: self.fixed_points as usize,
-                polygon_edges: self.polygon_edges,
-                h: self.h,
-                floored: self.floored,
-            };
-        }
-        let mut used = vec![false; self.pos.len()];
-        for t in &self.triangles {
-            for &v in t {
-                used[v as usize] = true;
-            }
-        }
-        // Polygon vertices stay even if a bound was never reached.
-        for u in used.iter_mut().take(self.fixed_points as usize) {
-            *u = true;
-        }
-        let mut map = vec![u32::MAX; self.pos.len()];
-        let (mut vertices, mut normals, mut border, mut h) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        for (i, &u) in used.iter().enumerate() {
-            if u {
-                map[i] = vertices.len() as u32;
-                vertices.push(self.pos[i]);
-                normals.push(self.normal[i]);
-                border.push(self.border[i]);
-                h.push(self.h[i]);
-            }
-        }
-        let triangles = self
-            .triangles
-            .iter()
-            .map(|t| t.map(|v| map[v as usize]))
-            .collect();
-        Triangulation {
+        let mut marched = Triangulation {
             mesh: Mesh {
-                vertices,
-                normals,
-                triangles,
+                vertices: self.pos,
+                normals: self.normal,
+                triangles: self.triangles,
             },
-            border,
+            border: self.border,
             fixed: self.fixed_points as usize,
             polygon_edges: self.polygon_edges,
-            h,
+            h: self.h,
             floored: self.floored,
+        };
+        if self.merged > 0 {
+            marched.drop_unused();
         }
+        marched
     }
 
     /// After a completion, two consecutive nodes of the same point (possible next to the

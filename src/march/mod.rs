@@ -360,15 +360,19 @@ fn improve(
         input.bbox,
     )
     .run(&limits, surface, &mut project);
+    if report.collapsed > 0 {
+        m.drop_unused();
+    }
     if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
         eprintln!(
-            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es) in {} round(s) ({:.3} s) and {} for the radius ratios with {} ODT move(s), {:.3} s in all; stopped: {}",
+            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es), {} removed in {} round(s) ({:.3} s) and {} for the radius ratios with {} ODT move(s), {:.3} s in all; stopped: {}",
             report.below_before,
             limits.angle.to_degrees(),
             report.below_after,
             report.flips,
             report.moves,
             report.inserted,
+            report.collapsed,
             report.rounds,
             report.rounds_seconds,
             report.polish_rounds,

@@ -140,6 +140,8 @@ pub(super) struct Report {
     /// Moves of the ODT smoothing (`Stage::odt`).
     pub odt_moves: usize,
     pub inserted: usize,
+    /// Free corners removed (`Stage::collapse_apex`).
+    pub collapsed: usize,
     pub rounds: u32,
     /// Rounds of the radius ratio's phase after them (`polish`, both passes).
     pub polish_rounds: u32,
@@ -1001,6 +1003,184 @@ impl<'a> Stage<'a> {
         on.next().is_none().then_some(face)
     }
 
+    // ------------------------------------------------------------ removal
+
+    /// Removes the free corner c of bad triangle t when the edge a–b opposite it cannot be
+    /// flipped (a boundary edge or a polygon's): c is merged into a or b, whichever leaves
+    /// the better smallest angle. Taken only if every triangle it makes faces ∇f, folds no
+    /// more than a flip may, has a smallest angle above the worst of c's fan before, and
+    /// every new edge has its midpoint within `tolerance` of the surface; and only where
+    /// the merge keeps the mesh a manifold (c's ring and the kept corner's neighbours share
+    /// only the two corners next to it). The two triangles at the edge c–keep go, the
+    /// others of c's fan take the kept corner instead of c, and c is left unused (dropped
+    /// after the stage). Returns whether c was removed.
+    fn collapse_apex(&mut self, t: u32, surface: &mut dyn Surface, tolerance: f64) -> bool {
+        debug_assert!(self.log.is_none());
+        let tv = self.tri[t as usize];
+        let Some(k) = (0..3).find(|&k| {
+            let (c, a, b) = (tv[k], tv[(k + 1) % 3], tv[(k + 2) % 3]);
+            let ab = 3 * t + ((k + 1) % 3) as u32;
+            self.free(c) && (self.twin[ab as usize] == NONE || self.constrained(a, b))
+        }) else {
+            return false;
+        };
+        let c = tv[k];
+        let mut star = Vec::new();
+        if !self.star(c, &mut star) {
+            return false;
+        }
+        let ring: Vec<u32> = star.iter().map(|&e| self.dst(e)).collect();
+        let old_worst = star
+            .iter()
+            .map(|&e| self.q(self.tri[(e / 3) as usize]))
+            .fold(f64::INFINITY, f64::min);
+        let n = ring.len();
+        // For each candidate: (worst new sine, index in the ring of the kept corner).
+        let mut best: Option<(f64, usize)> = None;
+        for (i, &keep) in ring.iter().enumerate() {
+            if keep != tv[(k + 1) % 3] && keep != tv[(k + 2) % 3] {
+                continue;
+            }
+            // The new edges keep–r, r the ring's other corners, must not exist yet.
+            let others: Vec<u32> = (2..n - 1).map(|j| ring[(i + j) % n]).collect();
+            if others
+                .iter()
+                .any(|&r| r == keep || self.edge_exists(keep, r))
+            {
+                continue;
+            }
+            let pk = self.p(keep);
+            let mut worst = f64::INFINITY;
+            let mut ok = true;
+            let mut prev_normal: Option<DVec3> = None;
+            // The new triangles (keep, ring[i+j], ring[i+j+1]) for j = 1 .. n−2.
+            for j in 1..n - 1 {
+                let (r1, r2) = (ring[(i + j) % n], ring[(i + j + 1) % n]);
+                let tri = [keep, r1, r2];
+                let corners = [pk, self.p(r1), self.p(r2)];
+                if !self.facing(tri, corners) {
+                    ok = false;
+                    break;
+                }
+                let normal = (corners[1] - pk).cross(corners[2] - pk).normalize_or_zero();
+                if prev_normal.is_some_and(|m| m.dot(normal) < FOLD_COS) {
+                    ok = false;
+                    break;
+                }
+                prev_normal = Some(normal);
+                worst = worst.min(min_sin(corners[0], corners[1], corners[2]));
+            }
+            if !ok || worst <= old_worst {
+                continue;
+            }
+            let chords = others.iter().all(|&r| {
+                let vg = surface.value_gradient(0.5 * (pk + self.p(r)));
+                let g = vg.gradient.length();
+                g > 0.0 && vg.value.abs() / g <= tolerance
+            });
+            if chords && best.is_none_or(|(w, _)| worst > w) {
+                best = Some((worst, i));
+            }
+        }
+        let Some((_, i)) = best else {
+            return false;
+        };
+        let keep = ring[i];
+        // The triangles of c's fan: star[j] leaves c towards ring[j]; its triangle is
+        // (c, ring[j], ring[j + 1]). The two at the edge c–keep are star[i] (c, keep,
+        // ring[i + 1]) and star[i − 1] (c, ring[i − 1], keep).
+        let gone = [star[i] / 3, star[(i + n - 1) % n] / 3];
+        let kept: Vec<u32> = star
+            .iter()
+            .map(|&e| e / 3)
+            .filter(|t| !gone.contains(t))
+            .collect();
+        // The triangles on the far side of the removed ones' outer edges.
+        let mut around: Vec<u32> = Vec::new();
+        for &g in &gone {
+            for h in 0..3 {
+                let tw = self.twin[(3 * g + h) as usize];
+                if tw != NONE && !gone.contains(&(tw / 3)) {
+                    around.push(tw / 3);
+                }
+            }
+        }
+        for &u in &kept {
+            let v = self.tri[u as usize].map(|x| if x == c { keep } else { x });
+            self.tri[u as usize] = v;
+        }
+        // Relink the half-edges of the changed triangles and their far neighbours among
+        // themselves; an edge with no partner among them keeps its twin if that still runs
+        // the other way, else it is open.
+        let mut local: Vec<u32> = kept.iter().chain(&around).copied().collect();
+        local.sort_unstable();
+        local.dedup();
+        let half: Vec<u32> = local
+            .iter()
+            .flat_map(|&u| (0..3).map(move |h| 3 * u + h))
+            .collect();
+        for &e in &half {
+            let (o, d) = (self.org(e), self.dst(e));
+            let partner = half
+                .iter()
+                .copied()
+                .find(|&f| self.org(f) == d && self.dst(f) == o);
+            let tw = self.twin[e as usize];
+            let twin = match partner {
+                Some(f) => f,
+                None if tw != NONE
+                    && !gone.contains(&(tw / 3))
+                    && self.org(tw) == d
+                    && self.dst(tw) == o =>
+                {
+                    tw
+                }
+                None => NONE,
+            };
+            self.twin[e as usize] = twin;
+            if twin != NONE {
+                self.twin[twin as usize] = e;
+            }
+        }
+        self.out[c as usize] = NONE;
+        for &u in &local {
+            for (h, &v) in self.tri[u as usize].iter().enumerate() {
+                self.out[v as usize] = 3 * u + h as u32;
+            }
+        }
+        // Remove the two triangles, the higher index first (each swap moves the last
+        // triangle into the freed slot).
+        let mut gone = gone;
+        gone.sort_unstable_by(|x, y| y.cmp(x));
+        for g in gone {
+            self.remove_triangle(g);
+        }
+        true
+    }
+
+    /// Removes triangle g, whose half-edges no twin points to any more, by moving the last
+    /// triangle into its slot.
+    fn remove_triangle(&mut self, g: u32) {
+        let last = self.tri.len() as u32 - 1;
+        if g != last {
+            let moved = self.tri[last as usize];
+            self.tri[g as usize] = moved;
+            for h in 0..3 {
+                let tw = self.twin[(3 * last + h) as usize];
+                self.twin[(3 * g + h) as usize] = tw;
+                if tw != NONE {
+                    self.twin[tw as usize] = 3 * g + h;
+                }
+                let v = moved[h as usize] as usize;
+                if self.out[v] / 3 == last {
+                    self.out[v] = 3 * g + self.out[v] % 3;
+                }
+            }
+        }
+        self.tri.pop();
+        self.twin.truncate(3 * last as usize);
+    }
+
     // ------------------------------------------------------------ insertion
 
     /// Inserts a vertex for bad triangle t: the off-centre of its shortest edge (the apex of
@@ -1331,10 +1511,15 @@ impl<'a> Stage<'a> {
             // 3. Insertion where a triangle is still below the target (not in the last
             // round, which flips and smooths around the last insertions).
             let last = round + 1 == limits.rounds || round + 1 == total;
-            if report.inserted < max_inserted && !last {
-                let bad: Vec<u32> = (0..self.tri.len() as u32)
+            let bad: Vec<u32> = if last {
+                Vec::new()
+            } else {
+                (0..self.tri.len() as u32)
                     .filter(|&t| self.q(self.tri[t as usize]) < sin_bad)
-                    .collect();
+                    .collect()
+            };
+            let any_bad = !bad.is_empty();
+            if report.inserted < max_inserted {
                 for t in bad {
                     if report.inserted >= max_inserted {
                         break;
@@ -1348,6 +1533,21 @@ impl<'a> Stage<'a> {
                         report.inserted += 1;
                         report.flips += flips;
                     }
+                }
+            }
+            // 4. Removal of the free corner of a bad triangle that rests on an edge no flip
+            // may change (a polygon's or the box's), where insertion did not mend it.
+            if any_bad {
+                let mut t = 0;
+                while t < self.tri.len() as u32 {
+                    if self.q(self.tri[t as usize]) < sin_bad
+                        && self.collapse_apex(t, surface, limits.tolerance)
+                    {
+                        report.collapsed += 1;
+                        // The triangle now at t (moved there by the removal) is looked at next.
+                        continue;
+                    }
+                    t += 1;
                 }
             }
             // What changed (moved or new vertices, triangles still bad) marks the
@@ -1940,6 +2140,81 @@ mod tests {
             ],
             vec![[0, 1, 2], [1, 0, 3]],
         )
+    }
+
+    /// A free corner 0.05 above a polygon edge a–b, in a fan of four (a, b, e, f), with a
+    /// triangle beyond the polygon edge and beyond f–a: `collapse_apex` merges it into a
+    /// corner of a–b, keeps the half-edges consistent (every twin runs the other way and is
+    /// its twin's twin, every used vertex's outgoing half-edge leaves it), the polygon edge
+    /// between the same two triangles' sides, χ, and raises the smallest angle.
+    #[test]
+    fn a_free_corner_on_a_polygon_edge_is_removed() {
+        let p = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+        // a b e f c g w s
+        let mut case = Case::new(
+            vec![
+                p(0.0, 0.0),
+                p(1.0, 0.0),
+                p(1.0, 0.9),
+                p(0.0, 0.9),
+                p(0.5, 0.05),
+                p(0.5, 1.6),
+                p(-0.8, 0.45),
+                p(0.5, -0.8),
+            ],
+            vec![
+                [0, 1, 4],
+                [1, 2, 4],
+                [2, 3, 4],
+                [3, 0, 4],
+                [3, 2, 5],
+                [0, 3, 6],
+                [1, 0, 7],
+            ],
+        );
+        let (euler, worst) = (case.euler(), case.worst_deg());
+        let mut stage = Stage::new(
+            &mut case.pos,
+            &mut case.normal,
+            &mut case.tri,
+            &mut case.border,
+            &mut case.h,
+            2,
+            None,
+        );
+        assert!(stage.collapse_apex(0, &mut Plane, 0.1));
+        assert_eq!(stage.tri.len(), 5);
+        assert!(stage.tri.iter().all(|t| !t.contains(&4)), "{:?}", stage.tri);
+        assert_eq!(stage.out[4], NONE);
+        for e in 0..3 * stage.tri.len() as u32 {
+            let f = stage.twin[e as usize];
+            if f != NONE {
+                assert_eq!(stage.twin[f as usize], e);
+                assert_eq!((stage.org(f), stage.dst(f)), (stage.dst(e), stage.org(e)));
+            }
+        }
+        for v in [0, 1, 2, 3, 5, 6, 7] {
+            assert_eq!(stage.org(stage.out[v as usize]), v);
+        }
+        // The polygon edge a–b still has a triangle on each side, now (a|b, b|a, e|s).
+        let sides = stage
+            .tri
+            .iter()
+            .filter(|t| t.contains(&0) && t.contains(&1))
+            .count();
+        assert_eq!(sides, 2);
+        let open = stage.twin.iter().filter(|&&f| f == NONE).count();
+        drop(stage);
+        assert_eq!(case.euler(), euler);
+        assert!(case.all_up());
+        assert!(
+            case.worst_deg() > worst + 20.0,
+            "{} → {}",
+            worst,
+            case.worst_deg()
+        );
+        // The outline: a–s–b, b–e, e–g–f, f–w–a: 7 open edges, as before.
+        assert_eq!(open, 7);
     }
 
     /// A fan of `k` ring points around the origin at radii and heights from `jitter`.

@@ -53,7 +53,7 @@ pub struct SizingSettings {
     /// inheritance off.
     pub inherit: f64,
     /// Grading: a point's h is at most its parent's h + `grading`·distance, and a cap of
-    /// size s at c bounds h(p) by s + `grading`·|p − c|. Default 0.5.
+    /// size s at c bounds h(p) by s + `grading`·|p − c|. Default 0.2.
     pub grading: f64,
     /// The floor of h, relative to the step: smaller wishes are cut to it and reported.
     /// Default 1/256.
@@ -72,7 +72,7 @@ impl Default for SizingSettings {
             probe_min: 1.0 / 64.0,
             probe_max: 0.25,
             inherit: 1.5,
-            grading: 0.3,
+            grading: 0.2,
             min_size: 1.0 / 256.0,
         }
     }
