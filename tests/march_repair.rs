@@ -1,8 +1,10 @@
 //! The quality stage (docs/marcher.md, "Quality stage"): the same input meshed with the stage
 //! off (`quality_angle = 0`) and on. The stage must keep the Euler characteristic and the
-//! boundary loops, add vertices only by insertion (never remove one: V and T grow together,
-//! T − 2V unchanged on a closed surface), keep every vertex on a box face on that face (it may slide along it), raise the
-//! smallest angle and the mean radius ratio, and not lower the median. The worst triangle of
+//! boundary loops, add or remove vertices only with their triangles (an insertion adds one
+//! vertex and two triangles, a removal takes one vertex and two: T − 2V unchanged on a closed
+//! surface), keep the box's border (a vertex on a box edge or corner stays bit for bit, one on
+//! a box face may slide along it, never off it), raise the smallest angle and the mean radius
+//! ratio, and not lower the median. The worst triangle of
 //! the raw mesh is printed with its neighbourhood (run with --nocapture), which is how the
 //! thin triangles were diagnosed.
 
@@ -68,7 +70,6 @@ fn compare(name: &str, mut surface: Boxed, input: &MarchInput, min_angle: f64) {
     let raw = march(surface.as_mut(), input, &off).expect("meshes without the pass");
     let fixed = march(surface.as_mut(), input, &MarchSettings::default()).expect("meshes");
     print_worst(name, &raw, input.step);
-    assert!(raw.vertices.len() <= fixed.vertices.len(), "{name}");
     let (tr, tf) = (topology(&raw), topology(&fixed));
     if tr.boundary_edges.is_empty() {
         let excess = |m: &Mesh| m.triangles.len() as i64 - 2 * m.vertices.len() as i64;
@@ -79,23 +80,32 @@ fn compare(name: &str, mut surface: Boxed, input: &MarchInput, min_angle: f64) {
     assert_eq!(tr.boundary_loops.len(), tf.boundary_loops.len(), "{name}");
     if let Some((lo, hi)) = input.bbox {
         // A vertex on a box face may slide along it (the face coordinate bit for bit); one on
-        // a box edge or corner stays where it is.
+        // a box edge or corner stays where it is. Removed vertices renumber the others, so
+        // this is checked on the sets: every raw point on an edge or corner is still a
+        // vertex, and no face has fewer vertices than before (face splits add some; a vertex
+        // that left its face would be missing from it).
         let faces = |p: DVec3| -> Vec<(usize, f64)> {
             (0..3)
                 .flat_map(|k| [(k, lo[k]), (k, hi[k])])
                 .filter(|&(k, b)| p[k] == b)
                 .collect()
         };
-        for (p, q) in raw.vertices.iter().zip(&fixed.vertices) {
+        let on_face = |m: &Mesh, face: (usize, f64)| {
+            m.vertices.iter().filter(|&&p| faces(p) == [face]).count()
+        };
+        for p in &raw.vertices {
             let on = faces(*p);
             match on.len() {
                 0 => {}
-                1 => assert_eq!(
-                    faces(*q),
-                    on,
-                    "{name}: a vertex left its box face: {p} → {q}"
+                1 => assert!(
+                    on_face(&fixed, on[0]) >= on_face(&raw, on[0]),
+                    "{name}: a vertex left the box face {:?}",
+                    on[0]
                 ),
-                _ => assert_eq!(p, q, "{name}: a vertex on a box edge moved"),
+                _ => assert!(
+                    fixed.vertices.contains(p),
+                    "{name}: a vertex on a box edge moved: {p}"
+                ),
             }
         }
     }
@@ -135,9 +145,9 @@ fn three_cylinders_keep_their_border() {
         "three cylinders δ=0.5",
         three_cylinders(2287.5587),
         &input,
-        // With the uniform step one box-face triangle stays at 27.4° even with border points
-        // sliding (docs/marcher.md, Known limits); the gallery's local-step mesh reaches 30°.
-        27.0,
+        // With the uniform step one box-face triangle stayed at 27.4° even with border points
+        // sliding, until the stage removed free corners resting on a box edge (31.0° now).
+        30.0,
     );
 }
 
