@@ -1038,7 +1038,9 @@ impl<'a> Stage<'a> {
         // For each candidate: (worst new sine, index in the ring of the kept corner).
         let mut best: Option<(f64, usize)> = None;
         for (i, &keep) in ring.iter().enumerate() {
-            if keep != tv[(k + 1) % 3] && keep != tv[(k + 2) % 3] {
+            // A corner at a non-manifold edge has more than one fan: the manifold test
+            // below could not see all its edges.
+            if (keep != tv[(k + 1) % 3] && keep != tv[(k + 2) % 3]) || self.frozen[keep as usize] {
                 continue;
             }
             // The new edges keep–r, r the ring's other corners, must not exist yet.
