@@ -576,9 +576,7 @@ impl<'a> Stage<'a> {
         if self.edge_exists(c, d) {
             return false;
         }
-        let vg = surface.value_gradient(0.5 * (pc + pd));
-        let g = vg.gradient.length();
-        if !(g > 0.0 && vg.value.abs() / g <= tolerance) {
+        if !midpoint_within(surface, pc, pd, tolerance) {
             return false;
         }
         let [o_ad, o_db, o_bc, o_ca] = self.outer(e, f);
@@ -1075,11 +1073,9 @@ impl<'a> Stage<'a> {
             if !ok || worst <= old_worst {
                 continue;
             }
-            let chords = others.iter().all(|&r| {
-                let vg = surface.value_gradient(0.5 * (pk + self.p(r)));
-                let g = vg.gradient.length();
-                g > 0.0 && vg.value.abs() / g <= tolerance
-            });
+            let chords = others
+                .iter()
+                .all(|&r| midpoint_within(surface, pk, self.p(r), tolerance));
             if chords && best.is_none_or(|(w, _)| worst > w) {
                 best = Some((worst, i));
             }
@@ -1950,6 +1946,15 @@ impl Fan {
     }
 }
 
+/// Whether the midpoint of the chord a–b is within `tolerance` of the surface by the linear
+/// estimate |f|/|∇f| (one evaluation): the chord test of a flip's new diagonal and of the
+/// edges a move or a removal makes longer or new.
+fn midpoint_within(surface: &mut dyn Surface, a: DVec3, b: DVec3, tolerance: f64) -> bool {
+    let vg = surface.value_gradient(0.5 * (a + b));
+    let g = vg.gradient.length();
+    g > 0.0 && vg.value.abs() / g <= tolerance
+}
+
 /// Whether every edge from the fan's centre at `to` to its ring that is longer than the
 /// fan's longest edge with the centre at `from` has its midpoint within `tolerance` of the
 /// surface (|f|/|∇f|, as a flip's new diagonal).
@@ -1965,9 +1970,7 @@ fn chords_within(
         if to.distance_squared(q) <= longest {
             return true;
         }
-        let vg = surface.value_gradient(0.5 * (to + q));
-        let g = vg.gradient.length();
-        g > 0.0 && vg.value.abs() / g <= tolerance
+        midpoint_within(surface, to, q, tolerance)
     })
 }
 
