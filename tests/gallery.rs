@@ -111,7 +111,7 @@ fn row_of(file: &str, name: &str) -> Option<&'static Row> {
 /// The smallest angle of every gallery mesh (DESIGN.md §6: CGAL's 30°), after the quality
 /// stage (issue 13). No gallery mesh is exempt: none has a given corner sharper than 60°.
 /// The two dist-product meshes held 26.5° and 29.9° until the stage removed a free corner
-/// resting on a box edge (`Stage::collapse_apex`).
+/// resting on a box edge (`Stage::remove_corner`).
 const MIN_ANGLE_DEG: f64 = 30.0;
 
 /// The mean radius ratio (2·r_in/r_circ) of every gallery mesh: DESIGN.md §6's 0.97. Genus

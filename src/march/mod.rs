@@ -261,10 +261,22 @@ pub fn march_verified(
     // The first flaw that asked for the current re-march: a re-march that fails says what it
     // was refining for (else a runaway re-march reads as a surface too large for its step).
     let mut refining: Option<verify::Found> = None;
+    // A right mesh with triangles the quality stage left below its angle, while a finer
+    // local step there is tried: returned if the finer march fails or is no better.
+    let mut fallback: Option<(usize, Marched)> = None;
     loop {
-        let mut marched =
-            marcher::run(surface, input, settings, &sizing, progress).map_err(|source| {
-                match refining {
+        let mut marched = match marcher::run(surface, input, settings, &sizing, progress) {
+            Ok(m) => m,
+            Err(source) => {
+                if let Some((_, mut m)) = fallback {
+                    // The finer march failed, maybe at the triangle limit: the mesh is not
+                    // what a larger limit would give.
+                    if matches!(source, MarchError::TooManyTriangles { .. }) {
+                        m.peak_triangles = u64::MAX;
+                    }
+                    return Ok(m);
+                }
+                return Err(match refining {
                     Some(first) => MarchError::Refining {
                         flaw: first.flaw,
                         at: first.at,
@@ -272,16 +284,18 @@ pub fn march_verified(
                         source: Box::new(source),
                     },
                     None => source,
-                }
-            })?;
+                });
+            }
+        };
         peak_triangles = peak_triangles.max(marched.mesh.triangles.len() as u64);
-        improve(surface, &mut marched, input, settings, tolerance);
+        let poor = improve(surface, &mut marched, input, settings, tolerance);
         let verdict = verify::verify(surface, &marched, tolerance, step, &settings.surface_point);
         // A chord error above the tolerance may be a wrong mesh (a cap over a neck thinner
         // than the step): refined like one, and with the uniform step (which cannot refine)
         // refused; the paper's coarse meshes need a `tolerance` that admits them.
         let mut flaws = verdict.wrong.clone();
         flaws.extend(&verdict.coarse);
+        let may_refine = !input.uniform && round < settings.refine_rounds;
         if flaws.is_empty() {
             let mut warnings = Vec::new();
             if let Some(at) = marched.floored {
@@ -291,15 +305,33 @@ pub fn march_verified(
                     (1.0 / settings.sizing.min_size).round()
                 ));
             }
-            return Ok(Marched {
+            if let Some(&(at, _)) = poor.first() {
+                warnings.push(format!(
+                    "{} triangle(s) with no given corner stay below {:.1}° near {at} after {round} refinement(s) of the local step",
+                    poor.len(),
+                    settings.quality_angle.to_degrees()
+                ));
+            }
+            let right = Marched {
                 mesh: marched.mesh,
                 max_chord_error: verdict.max_chord_error,
                 warnings,
                 refinements: round,
                 peak_triangles,
-            });
-        }
-        if input.uniform || round >= settings.refine_rounds {
+            };
+            // The fewer such triangles, the better; on a tie the finer mesh.
+            let best = match fallback.take() {
+                Some((n, m)) if n < poor.len() => (n, m),
+                _ => (poor.len(), right),
+            };
+            if best.0 == 0 || !may_refine {
+                return Ok(best.1);
+            }
+            fallback = Some(best);
+        } else if !may_refine {
+            if let Some((_, m)) = fallback {
+                return Ok(m);
+            }
             let first = flaws[0];
             return Err(MarchError::Unverified {
                 flaw: first.flaw,
@@ -309,33 +341,51 @@ pub fn march_verified(
             });
         }
         if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
-            eprintln!(
-                "march: verification round {round}: {} flaw(s), first {} at {}; refining",
-                flaws.len(),
-                flaws[0].flaw,
-                flaws[0].at
-            );
+            match flaws.first() {
+                Some(first) => eprintln!(
+                    "march: verification round {round}: {} flaw(s), first {} at {}; refining",
+                    flaws.len(),
+                    first.flaw,
+                    first.at
+                ),
+                None => eprintln!(
+                    "march: verification round {round}: right, but {} triangle(s) below the quality angle, first at {}; refining",
+                    poor.len(),
+                    poor[0].0
+                ),
+            }
         }
-        sizing.add_caps(flaws.iter().map(|f| Cap {
-            at: f.at,
-            size: settings.refine_factor * f.h,
-        }));
-        refining = Some(flaws[0]);
+        // Triangles the quality stage could not mend with no given corner to excuse them
+        // were made with too coarse a step for it (a neck's saddle at a step three times
+        // its width): refined like flaws.
+        let caps = flaws
+            .iter()
+            .map(|f| (f.at, f.h))
+            .chain(poor.iter().copied())
+            .map(|(at, h)| Cap {
+                at,
+                size: settings.refine_factor * h,
+            });
+        sizing.add_caps(caps);
+        if let Some(&first) = flaws.first() {
+            refining = Some(first);
+        }
         round += 1;
     }
 }
 
 /// The quality stage (`quality.rs`) over a finished triangulation; what it did goes to
-/// `SURFC_TRACE`.
+/// `SURFC_TRACE`. Returns the triangles it left below its angle with no given corner, as
+/// (centroid, local step).
 fn improve(
     surface: &mut dyn Surface,
     m: &mut marcher::Triangulation,
     input: &MarchInput,
     settings: &MarchSettings,
     tolerance: f64,
-) {
+) -> Vec<(DVec3, f64)> {
     if settings.quality_angle <= 0.0 {
-        return;
+        return Vec::new();
     }
     let limits = quality::Limits {
         angle: settings.quality_angle.min(std::f64::consts::FRAC_PI_3),
@@ -381,4 +431,5 @@ fn improve(
             report.stop
         );
     }
+    report.poor
 }

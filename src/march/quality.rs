@@ -140,7 +140,7 @@ pub(super) struct Report {
     /// Moves of the ODT smoothing (`Stage::odt`).
     pub odt_moves: usize,
     pub inserted: usize,
-    /// Free corners removed (`Stage::collapse_apex`).
+    /// Free corners removed (`Stage::remove_corner`).
     pub collapsed: usize,
     pub rounds: u32,
     /// Rounds of the radius ratio's phase after them (`polish`, both passes).
@@ -149,6 +149,10 @@ pub(super) struct Report {
     pub rounds_seconds: f64,
     /// Why the stage stopped.
     pub stop: &'static str,
+    /// The triangles left below the target whose corners are all free, as (centroid, the
+    /// largest local step of its corners): no given corner excuses them, so the march's
+    /// loop refines the local step there (`march_verified`).
+    pub poor: Vec<(DVec3, f64)>,
 }
 
 /// sin of the smallest angle of triangle (a, b, c): the smallest angle is opposite the
@@ -1003,86 +1007,40 @@ impl<'a> Stage<'a> {
 
     // ------------------------------------------------------------ removal
 
-    /// Removes the free corner c of bad triangle t when the edge a–b opposite it cannot be
-    /// flipped (a boundary edge or a polygon's): c is merged into a or b, whichever leaves
-    /// the better smallest angle. Taken only if every triangle it makes faces ∇f, folds no
-    /// more than a flip may, has a smallest angle above the worst of c's fan before, and
-    /// every new edge has its midpoint within `tolerance` of the surface; and only where
-    /// the merge keeps the mesh a manifold (c's ring and the kept corner's neighbours share
-    /// only the two corners next to it). The two triangles at the edge c–keep go, the
-    /// others of c's fan take the kept corner instead of c, and c is left unused (dropped
-    /// after the stage). Returns whether c was removed.
-    fn collapse_apex(&mut self, t: u32, surface: &mut dyn Surface, tolerance: f64) -> bool {
+    /// Removes a free corner c of bad triangle t by merging it into one of t's other two
+    /// corners (the kept corner stays where it is), where neither a flip, the smoothing nor
+    /// an insertion mended t: a needle's short edge (the sweep's blobs had 8° triangles at
+    /// their necks that the off-centres only ever made smaller), or an obtuse free corner
+    /// resting on an edge no flip may change (a box's or a polygon's). Of every free corner
+    /// and either kept corner, the merge that leaves the best smallest angle is taken, and
+    /// only if every triangle it makes faces ∇f, folds no more than a flip may, has a
+    /// smallest angle above the worst of c's fan before, and every new edge has its midpoint
+    /// within `tolerance` of the surface; and only where the merge keeps the mesh a
+    /// manifold (c's ring and the kept corner's neighbours share only the two corners next
+    /// to it). The two triangles at the edge c–keep go, the others of c's fan take the kept
+    /// corner instead of c, and c is left unused (dropped after the stage). Returns the
+    /// kept corner.
+    fn remove_corner(&mut self, t: u32, surface: &mut dyn Surface, tolerance: f64) -> Option<u32> {
         debug_assert!(self.log.is_none());
         let tv = self.tri[t as usize];
-        let Some(k) = (0..3).find(|&k| {
-            let (c, a, b) = (tv[k], tv[(k + 1) % 3], tv[(k + 2) % 3]);
-            let ab = 3 * t + ((k + 1) % 3) as u32;
-            self.free(c) && (self.twin[ab as usize] == NONE || self.constrained(a, b))
-        }) else {
-            return false;
-        };
-        let c = tv[k];
-        let mut star = Vec::new();
-        if !self.star(c, &mut star) {
-            return false;
+        // (worst new sine, c, its star, index in c's ring of the kept corner).
+        let mut best: Option<(f64, u32, Vec<u32>, usize)> = None;
+        for k in 0..3 {
+            let c = tv[k];
+            let mut star = Vec::new();
+            if !self.free(c) || !self.star(c, &mut star) {
+                continue;
+            }
+            let others = [tv[(k + 1) % 3], tv[(k + 2) % 3]];
+            if let Some((worst, i)) = self.best_merge(&star, others, surface, tolerance) {
+                if best.as_ref().is_none_or(|b| worst > b.0) {
+                    best = Some((worst, c, star, i));
+                }
+            }
         }
+        let (_, c, star, i) = best?;
         let ring: Vec<u32> = star.iter().map(|&e| self.dst(e)).collect();
-        let old_worst = star
-            .iter()
-            .map(|&e| self.q(self.tri[(e / 3) as usize]))
-            .fold(f64::INFINITY, f64::min);
         let n = ring.len();
-        // For each candidate: (worst new sine, index in the ring of the kept corner).
-        let mut best: Option<(f64, usize)> = None;
-        for (i, &keep) in ring.iter().enumerate() {
-            // A corner at a non-manifold edge has more than one fan: the manifold test
-            // below could not see all its edges.
-            if (keep != tv[(k + 1) % 3] && keep != tv[(k + 2) % 3]) || self.frozen[keep as usize] {
-                continue;
-            }
-            // The new edges keep–r, r the ring's other corners, must not exist yet.
-            let others: Vec<u32> = (2..n - 1).map(|j| ring[(i + j) % n]).collect();
-            if others
-                .iter()
-                .any(|&r| r == keep || self.edge_exists(keep, r))
-            {
-                continue;
-            }
-            let pk = self.p(keep);
-            let mut worst = f64::INFINITY;
-            let mut ok = true;
-            let mut prev_normal: Option<DVec3> = None;
-            // The new triangles (keep, ring[i+j], ring[i+j+1]) for j = 1 .. n−2.
-            for j in 1..n - 1 {
-                let (r1, r2) = (ring[(i + j) % n], ring[(i + j + 1) % n]);
-                let tri = [keep, r1, r2];
-                let corners = [pk, self.p(r1), self.p(r2)];
-                if !self.facing(tri, corners) {
-                    ok = false;
-                    break;
-                }
-                let normal = (corners[1] - pk).cross(corners[2] - pk).normalize_or_zero();
-                if prev_normal.is_some_and(|m| m.dot(normal) < FOLD_COS) {
-                    ok = false;
-                    break;
-                }
-                prev_normal = Some(normal);
-                worst = worst.min(min_sin(corners[0], corners[1], corners[2]));
-            }
-            if !ok || worst <= old_worst {
-                continue;
-            }
-            let chords = others
-                .iter()
-                .all(|&r| midpoint_within(surface, pk, self.p(r), tolerance));
-            if chords && best.is_none_or(|(w, _)| worst > w) {
-                best = Some((worst, i));
-            }
-        }
-        let Some((_, i)) = best else {
-            return false;
-        };
         let keep = ring[i];
         // The triangles of c's fan: star[j] leaves c towards ring[j]; its triangle is
         // (c, ring[j], ring[j + 1]). The two at the edge c–keep are star[i] (c, keep,
@@ -1153,7 +1111,72 @@ impl<'a> Stage<'a> {
         for g in gone {
             self.remove_triangle(g);
         }
-        true
+        Some(keep)
+    }
+
+    /// For free vertex c with closed fan `star`: the best of merging c into either vertex
+    /// of `keeps` (both in c's ring), as (the new triangles' worst sine, index in the ring
+    /// of the kept corner), if it passes `remove_corner`'s tests.
+    fn best_merge(
+        &self,
+        star: &[u32],
+        keeps: [u32; 2],
+        surface: &mut dyn Surface,
+        tolerance: f64,
+    ) -> Option<(f64, usize)> {
+        let ring: Vec<u32> = star.iter().map(|&e| self.dst(e)).collect();
+        let old_worst = star
+            .iter()
+            .map(|&e| self.q(self.tri[(e / 3) as usize]))
+            .fold(f64::INFINITY, f64::min);
+        let n = ring.len();
+        let mut best: Option<(f64, usize)> = None;
+        for (i, &keep) in ring.iter().enumerate() {
+            // A corner at a non-manifold edge has more than one fan: the manifold test
+            // below could not see all its edges.
+            if !keeps.contains(&keep) || self.frozen[keep as usize] {
+                continue;
+            }
+            // The new edges keep–r, r the ring's other corners, must not exist yet.
+            let others: Vec<u32> = (2..n - 1).map(|j| ring[(i + j) % n]).collect();
+            if others
+                .iter()
+                .any(|&r| r == keep || self.edge_exists(keep, r))
+            {
+                continue;
+            }
+            let pk = self.p(keep);
+            let mut worst = f64::INFINITY;
+            let mut ok = true;
+            let mut prev_normal: Option<DVec3> = None;
+            // The new triangles (keep, ring[i+j], ring[i+j+1]) for j = 1 .. n−2.
+            for j in 1..n - 1 {
+                let (r1, r2) = (ring[(i + j) % n], ring[(i + j + 1) % n]);
+                let tri = [keep, r1, r2];
+                let corners = [pk, self.p(r1), self.p(r2)];
+                if !self.facing(tri, corners) {
+                    ok = false;
+                    break;
+                }
+                let normal = (corners[1] - pk).cross(corners[2] - pk).normalize_or_zero();
+                if prev_normal.is_some_and(|m| m.dot(normal) < FOLD_COS) {
+                    ok = false;
+                    break;
+                }
+                prev_normal = Some(normal);
+                worst = worst.min(min_sin(corners[0], corners[1], corners[2]));
+            }
+            if !ok || worst <= old_worst {
+                continue;
+            }
+            let chords = others
+                .iter()
+                .all(|&r| midpoint_within(surface, pk, self.p(r), tolerance));
+            if chords && best.is_none_or(|(w, _)| worst > w) {
+                best = Some((worst, i));
+            }
+        }
+        best
     }
 
     /// Removes triangle g, whose half-edges no twin points to any more, by moving the last
@@ -1538,10 +1561,16 @@ impl<'a> Stage<'a> {
             if any_bad {
                 let mut t = 0;
                 while t < self.tri.len() as u32 {
-                    if self.q(self.tri[t as usize]) < sin_bad
-                        && self.collapse_apex(t, surface, limits.tolerance)
-                    {
+                    let merged = (self.q(self.tri[t as usize]) < sin_bad)
+                        .then(|| self.remove_corner(t, surface, limits.tolerance))
+                        .flatten();
+                    if let Some(keep) = merged {
                         report.collapsed += 1;
+                        // Its fan changed: flips and smoothing around it next round (a
+                        // vertex inserted this round counts as moved already).
+                        if let Some(m) = moved.get_mut(keep as usize) {
+                            *m = true;
+                        }
                         // The triangle now at t (moved there by the removal) is looked at next.
                         continue;
                     }
@@ -1595,6 +1624,15 @@ impl<'a> Stage<'a> {
         let dirty = self.grow(&moved);
         self.polish(dirty, limits, surface, project, &mut report);
         report.below_after = bad_count(self);
+        report.poor = self
+            .tri
+            .iter()
+            .filter(|&&t| self.q(t) < sin_bad && t.iter().all(|&v| self.free(v)))
+            .map(|&t| {
+                let centroid = self.corners(t).iter().sum::<DVec3>() / 3.0;
+                (centroid, self.h_of(&t))
+            })
+            .collect();
         report
     }
 
@@ -2148,7 +2186,7 @@ mod tests {
     }
 
     /// A free corner 0.05 above a polygon edge a–b, in a fan of four (a, b, e, f), with a
-    /// triangle beyond the polygon edge and beyond f–a: `collapse_apex` merges it into a
+    /// triangle beyond the polygon edge and beyond f–a: `remove_corner` merges it into a
     /// corner of a–b, keeps the half-edges consistent (every twin runs the other way and is
     /// its twin's twin, every used vertex's outgoing half-edge leaves it), the polygon edge
     /// between the same two triangles' sides, χ, and raises the smallest angle.
@@ -2187,7 +2225,7 @@ mod tests {
             2,
             None,
         );
-        assert!(stage.collapse_apex(0, &mut Plane, 0.1));
+        assert!(stage.remove_corner(0, &mut Plane, 0.1).is_some());
         assert_eq!(stage.tri.len(), 5);
         assert!(stage.tri.iter().all(|t| !t.contains(&4)), "{:?}", stage.tri);
         assert_eq!(stage.out[4], NONE);
@@ -2220,6 +2258,67 @@ mod tests {
         );
         // The outline: a–s–b, b–e, e–g–f, f–w–a: 7 open edges, as before.
         assert_eq!(open, 7);
+    }
+
+    /// A needle between two free vertices b and c 0.02 apart inside a ring of eight polygon
+    /// points (its smallest angle 1.1°, its short edge b–c interior and flippable): the
+    /// removal merges one into the other, the mesh stays consistent with χ unchanged, and
+    /// the smallest angle is near the ring's 45°.
+    #[test]
+    fn a_needle_between_two_free_corners_is_merged() {
+        let mut pos: Vec<DVec3> = (0..8)
+            .map(|k| {
+                let a = k as f64 * std::f64::consts::FRAC_PI_4;
+                DVec3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        pos.extend([DVec3::new(-0.01, 0.0, 0.0), DVec3::new(0.01, 0.0, 0.0)]);
+        let (b, c) = (8, 9);
+        let mut case = Case::new(
+            pos,
+            vec![
+                [b, c, 2],
+                [c, b, 6],
+                [c, 0, 1],
+                [c, 1, 2],
+                [c, 7, 0],
+                [c, 6, 7],
+                [b, 2, 3],
+                [b, 3, 4],
+                [b, 4, 5],
+                [b, 5, 6],
+            ],
+        );
+        let (euler, worst) = (case.euler(), case.worst_deg());
+        assert!(worst < 2.0, "{worst}");
+        let mut stage = Stage::new(
+            &mut case.pos,
+            &mut case.normal,
+            &mut case.tri,
+            &mut case.border,
+            &mut case.h,
+            8,
+            None,
+        );
+        let keep = stage.remove_corner(0, &mut Plane, 0.1);
+        assert!(keep == Some(b) || keep == Some(c), "{keep:?}");
+        assert_eq!(stage.tri.len(), 8);
+        let gone = if keep == Some(b) { c } else { b };
+        assert!(stage.tri.iter().all(|t| !t.contains(&gone)));
+        assert_eq!(stage.out[gone as usize], NONE);
+        for e in 0..3 * stage.tri.len() as u32 {
+            let f = stage.twin[e as usize];
+            if f != NONE {
+                assert_eq!(stage.twin[f as usize], e);
+                assert_eq!((stage.org(f), stage.dst(f)), (stage.dst(e), stage.org(e)));
+            }
+        }
+        let open = stage.twin.iter().filter(|&&f| f == NONE).count();
+        drop(stage);
+        assert_eq!(open, 8, "the ring's eight edges stay the outline");
+        assert_eq!(case.euler(), euler);
+        assert!(case.all_up());
+        assert!(case.worst_deg() > 44.0, "{}", case.worst_deg());
     }
 
     /// A fan of `k` ring points around the origin at radii and heights from `jitter`.
