@@ -298,7 +298,8 @@ fn generated_shapes_are_meshed_right_or_refused() {
 /// stage leaves a 12° triangle on the neck's saddle, none of whose corners is given (a vertex
 /// of valence 12 there). The march refines the local step at it like a flaw of the
 /// verification, and the finer mesh has every angle at 30° or more; with no refinement
-/// allowed, the right mesh comes back with a warning that says where.
+/// allowed, or a finer march that fails, the right mesh comes back with a warning that says
+/// where.
 #[test]
 fn a_triangle_the_quality_stage_cannot_mend_refines_the_step_there() {
     let mut rng = Rng(4);

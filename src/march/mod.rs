@@ -271,8 +271,8 @@ pub fn march_verified(
                 if let Some((_, mut m)) = fallback {
                     // The finer march failed, maybe at the triangle limit: the mesh is not
                     // what a larger limit would give.
-                    if matches!(source, MarchError::TooManyTriangles { .. }) {
-                        m.peak_triangles = u64::MAX;
+                    if let MarchError::TooManyTriangles { limit, .. } = source {
+                        m.peak_triangles = m.peak_triangles.max(limit.saturating_add(1));
                     }
                     return Ok(m);
                 }
@@ -319,12 +319,14 @@ pub fn march_verified(
                 refinements: round,
                 peak_triangles,
             };
-            // The fewer such triangles, the better; on a tie the finer mesh.
-            let best = match fallback.take() {
-                Some((n, m)) if n < poor.len() => (n, m),
-                _ => (poor.len(), right),
+            // The fewer such triangles, the better. A refinement that did not lower their
+            // number ends the search (a place no step mends, such as a singular point,
+            // costs one re-march, not `refine_rounds`).
+            let (best, improved) = match fallback.take() {
+                Some((n, m)) if n <= poor.len() => ((n, m), false),
+                _ => ((poor.len(), right), true),
             };
-            if best.0 == 0 || !may_refine {
+            if best.0 == 0 || !may_refine || !improved {
                 return Ok(best.1);
             }
             fallback = Some(best);
