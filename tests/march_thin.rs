@@ -76,10 +76,10 @@ fn genus2_plate_with_a_bridge_thinner_than_the_step() {
 
 /// The rim's radius of curvature is 0.0008 = step/250, at the floor of the local step: the
 /// triangles across it reached 13.8° before the quality stage (issue 10 asks 15°), 29.5°
-/// with it (the others reach 30°).
+/// with its first version, 30.2° with the ODT, the corner removal and grading 0.2.
 #[test]
 fn flat_ellipsoid_at_five_times_its_thickness() {
-    thin_case(&superquadric(2.0, 2.0, 0.04, 2), 0.2, 29.0);
+    thin_case(&superquadric(2.0, 2.0, 0.04, 2), 0.2, 30.0);
 }
 
 #[test]
