@@ -2123,6 +2123,12 @@ mod tests {
                 insert_fraction: 0.05,
                 tolerance: 0.1,
             };
+            self.stage(fixed, bbox)
+                .run(&limits, &mut Plane, &mut onto_plane)
+        }
+
+        /// The stage over the case, with the first `fixed` vertices as polygon vertices.
+        fn stage(&mut self, fixed: usize, bbox: Option<(DVec3, DVec3)>) -> Stage<'_> {
             Stage::new(
                 &mut self.pos,
                 &mut self.normal,
@@ -2132,7 +2138,6 @@ mod tests {
                 fixed,
                 bbox,
             )
-            .run(&limits, &mut Plane, &mut onto_plane)
         }
 
         fn worst_deg(&self) -> f64 {
@@ -2185,6 +2190,17 @@ mod tests {
         )
     }
 
+    /// Every twin runs the other way and is its twin's twin.
+    fn assert_twins(stage: &Stage<'_>) {
+        for e in 0..3 * stage.tri.len() as u32 {
+            let f = stage.twin[e as usize];
+            if f != NONE {
+                assert_eq!(stage.twin[f as usize], e);
+                assert_eq!((stage.org(f), stage.dst(f)), (stage.dst(e), stage.org(e)));
+            }
+        }
+    }
+
     /// A free corner 0.05 above a polygon edge a–b, in a fan of four (a, b, e, f), with a
     /// triangle beyond the polygon edge and beyond f–a: `remove_corner` merges it into a
     /// corner of a–b, keeps the half-edges consistent (every twin runs the other way and is
@@ -2216,26 +2232,12 @@ mod tests {
             ],
         );
         let (euler, worst) = (case.euler(), case.worst_deg());
-        let mut stage = Stage::new(
-            &mut case.pos,
-            &mut case.normal,
-            &mut case.tri,
-            &mut case.border,
-            &mut case.h,
-            2,
-            None,
-        );
+        let mut stage = case.stage(2, None);
         assert!(stage.remove_corner(0, &mut Plane, 0.1).is_some());
         assert_eq!(stage.tri.len(), 5);
         assert!(stage.tri.iter().all(|t| !t.contains(&4)), "{:?}", stage.tri);
         assert_eq!(stage.out[4], NONE);
-        for e in 0..3 * stage.tri.len() as u32 {
-            let f = stage.twin[e as usize];
-            if f != NONE {
-                assert_eq!(stage.twin[f as usize], e);
-                assert_eq!((stage.org(f), stage.dst(f)), (stage.dst(e), stage.org(e)));
-            }
-        }
+        assert_twins(&stage);
         for v in [0, 1, 2, 3, 5, 6, 7] {
             assert_eq!(stage.org(stage.out[v as usize]), v);
         }
@@ -2291,28 +2293,14 @@ mod tests {
         );
         let (euler, worst) = (case.euler(), case.worst_deg());
         assert!(worst < 2.0, "{worst}");
-        let mut stage = Stage::new(
-            &mut case.pos,
-            &mut case.normal,
-            &mut case.tri,
-            &mut case.border,
-            &mut case.h,
-            8,
-            None,
-        );
+        let mut stage = case.stage(8, None);
         let keep = stage.remove_corner(0, &mut Plane, 0.1);
         assert!(keep == Some(b) || keep == Some(c), "{keep:?}");
         assert_eq!(stage.tri.len(), 8);
         let gone = if keep == Some(b) { c } else { b };
         assert!(stage.tri.iter().all(|t| !t.contains(&gone)));
         assert_eq!(stage.out[gone as usize], NONE);
-        for e in 0..3 * stage.tri.len() as u32 {
-            let f = stage.twin[e as usize];
-            if f != NONE {
-                assert_eq!(stage.twin[f as usize], e);
-                assert_eq!((stage.org(f), stage.dst(f)), (stage.dst(e), stage.org(e)));
-            }
-        }
+        assert_twins(&stage);
         let open = stage.twin.iter().filter(|&&f| f == NONE).count();
         drop(stage);
         assert_eq!(open, 8, "the ring's eight edges stay the outline");
