@@ -259,20 +259,27 @@ impl<'a> Stage<'a> {
         let mut twin = vec![NONE; 3 * tri.len()];
         let mut out = vec![NONE; n];
         let mut frozen = vec![false; n];
-        let dst = |e: u32| tri[(e / 3) as usize][(next(e) % 3) as usize];
+        // The destination of each listed half-edge, beside it: the searches below read
+        // their vertices' lists in order instead of chasing each half-edge into `tri`
+        // (on the fine sphere that chase was most of this function's time).
+        let list_dst: Vec<u32> = list
+            .iter()
+            .map(|&e| tri[(e / 3) as usize][(next(e) % 3) as usize])
+            .collect();
+        let range = |v: usize| start[v] as usize..start[v + 1] as usize;
         for a in 0..n {
-            let outs = &list[start[a] as usize..start[a + 1] as usize];
-            if let Some(&e) = outs.first() {
-                out[a] = e;
+            let outs = range(a);
+            if !outs.is_empty() {
+                out[a] = list[outs.start];
             }
-            for &e in outs {
-                let b = dst(e) as usize;
-                let same = outs.iter().filter(|&&f| dst(f) as usize == b).count();
-                let mut back = list[start[b] as usize..start[b + 1] as usize]
+            for i in outs.clone() {
+                let (e, b) = (list[i], list_dst[i] as usize);
+                let same = list_dst[outs.clone()]
                     .iter()
-                    .copied()
-                    .filter(|&f| dst(f) as usize == a);
-                let (first, more) = (back.next(), back.next().is_some());
+                    .filter(|&&d| d as usize == b)
+                    .count();
+                let mut back = range(b).filter(|&j| list_dst[j] as usize == a);
+                let (first, more) = (back.next().map(|j| list[j]), back.next().is_some());
                 if let (1, false, Some(f)) = (same, more, first) {
                     twin[e as usize] = f;
                 } else if same > 1 || more {
@@ -716,16 +723,22 @@ impl<'a> Stage<'a> {
     /// (in the tangent plane at v): where the worst triangle wants v.
     fn ideal_apex(&self, v: u32, star: &[u32]) -> DVec3 {
         let (p, n) = (self.p(v), self.normal[v as usize]);
-        star.iter()
-            .map(|&e| (self.p(self.dst(e)), self.p(self.org(prev(e)))))
-            .min_by(|x, y| min_sin(p, x.0, x.1).total_cmp(&min_sin(p, y.0, y.1)))
-            .map_or(p, |(b, c)| {
-                let d = c - b;
-                let left = n.cross(d).normalize_or_zero();
-                let m = 0.5 * (b + c);
-                let m = m - (m - p).dot(n) * n;
-                m + left * (d.length() * 3f64.sqrt() / 2.0)
-            })
+        // The first worst triangle (as `min_by` would pick it), each sine computed once.
+        let mut worst: Option<(f64, (DVec3, DVec3))> = None;
+        for &e in star {
+            let (b, c) = (self.p(self.dst(e)), self.p(self.org(prev(e))));
+            let sin = min_sin(p, b, c);
+            if worst.is_none_or(|(w, _)| sin.total_cmp(&w).is_lt()) {
+                worst = Some((sin, (b, c)));
+            }
+        }
+        worst.map_or(p, |(_, (b, c))| {
+            let d = c - b;
+            let left = n.cross(d).normalize_or_zero();
+            let m = 0.5 * (b + c);
+            let m = m - (m - p).dot(n) * n;
+            m + left * (d.length() * 3f64.sqrt() / 2.0)
+        })
     }
 
     /// Moves free vertex v to a better place on the surface. For the angle (`ratio` false:
@@ -789,18 +802,21 @@ impl<'a> Stage<'a> {
                 .sum::<DVec3>()
                 / fan.k as f64;
             let ab = s.angle_based(v, star);
-            let ideal = s.ideal_apex(v, star);
-            [
-                ab,
-                ring_mean,
-                0.5 * (p + ab),
-                0.5 * (p + ring_mean),
-                0.5 * (p + ideal),
-                0.75 * p + 0.25 * ideal,
-                0.875 * p + 0.125 * ideal,
-            ]
-            .into_iter()
-            .find(|&q| better(&fan.eval(q)))
+            [ab, ring_mean, 0.5 * (p + ab), 0.5 * (p + ring_mean)]
+                .into_iter()
+                .find(|&q| better(&fan.eval(q)))
+                .or_else(|| {
+                    // Towards the worst triangle's ideal apex, computed only when the
+                    // candidates above fail.
+                    let ideal = s.ideal_apex(v, star);
+                    [
+                        0.5 * (p + ideal),
+                        0.75 * p + 0.25 * ideal,
+                        0.875 * p + 0.125 * ideal,
+                    ]
+                    .into_iter()
+                    .find(|&q| better(&fan.eval(q)))
+                })
         };
         let target = if angle_first {
             by_angle(self).or_else(by_ratio)
@@ -1412,12 +1428,16 @@ impl<'a> Stage<'a> {
 
     // ------------------------------------------------------------ driver
 
-    /// The interior edges (one half-edge each, the lower) with an end marked in `dirty`.
-    /// Per vertex: a corner of a triangle whose smallest angle's sine is below `sin`.
-    fn corners_below(&self, sin: f64) -> Vec<bool> {
+    /// Per triangle: the sine of its smallest angle (`q`), for the scans of a round to share.
+    fn sines(&self) -> Vec<f64> {
+        self.tri.iter().map(|&t| self.q(t)).collect()
+    }
+
+    /// Per vertex: a corner of a triangle whose smallest angle's sine (`sines`) is below `sin`.
+    fn corners_below(&self, sines: &[f64], sin: f64) -> Vec<bool> {
         let mut marked = vec![false; self.pos.len()];
-        for t in self.tri.iter() {
-            if self.q(*t) < sin {
+        for (t, &q) in self.tri.iter().zip(sines) {
+            if q < sin {
                 for &v in t {
                     marked[v as usize] = true;
                 }
@@ -1429,6 +1449,10 @@ impl<'a> Stage<'a> {
     /// `marked` and the vertices that share a triangle with a marked one.
     fn grow(&self, marked: &[bool]) -> Vec<bool> {
         let mut grown = marked.to_vec();
+        // Nothing marked (the usual case once no triangle is below the target): no scan.
+        if !marked.contains(&true) {
+            return grown;
+        }
         for t in self.tri.iter() {
             if t.iter().any(|&v| marked[v as usize]) {
                 for &v in t {
@@ -1439,6 +1463,7 @@ impl<'a> Stage<'a> {
         grown
     }
 
+    /// The interior edges (one half-edge each, the lower) with an end marked in `dirty`.
     fn dirty_edges(&self, dirty: &[bool]) -> Vec<u32> {
         (0..3 * self.tri.len() as u32)
             .filter(|&e| {
@@ -1489,8 +1514,11 @@ impl<'a> Stage<'a> {
             let mut moves = 0;
             // Border vertices slide only where a triangle of theirs is below the target:
             // elsewhere the box's border is as the march placed it.
-            let bad_corner = self.corners_below(sin_bad);
-            let mut smoothed = self.corners_below(sin_poor);
+            // The triangles' sines, computed once here and kept up to date through the
+            // smoothing (only the fans of moved vertices change) for the scans after it.
+            let mut sines = self.sines();
+            let bad_corner = self.corners_below(&sines, sin_bad);
+            let mut smoothed = self.corners_below(&sines, sin_poor);
             for (s, near) in smoothed.iter_mut().zip(self.grow(&self.grow(&bad_corner))) {
                 *s |= near;
             }
@@ -1506,6 +1534,13 @@ impl<'a> Stage<'a> {
                 }
             }
             report.moves += moves;
+            if moves > 0 {
+                for (t, q) in self.tri.iter().zip(sines.iter_mut()) {
+                    if t.iter().any(|&v| moved[v as usize]) {
+                        *q = self.q(*t);
+                    }
+                }
+            }
             // 3. Insertion where a triangle is still below the target (not in the last
             // round, which flips and smooths around the last insertions).
             let last = round + 1 == limits.rounds || round + 1 == total;
@@ -1513,7 +1548,7 @@ impl<'a> Stage<'a> {
                 Vec::new()
             } else {
                 (0..self.tri.len() as u32)
-                    .filter(|&t| self.q(self.tri[t as usize]) < sin_bad)
+                    .filter(|&t| sines[t as usize] < sin_bad)
                     .collect()
             };
             let any_bad = !bad.is_empty();
@@ -1548,12 +1583,16 @@ impl<'a> Stage<'a> {
                     t += 1;
                 }
             }
+            // Insertions and removals change triangles: then the sines are computed anew.
+            if any_bad {
+                sines = self.sines();
+            }
             // What changed (moved or new vertices, triangles still bad) marks the
             // corners of the triangles around it for the next round.
             let mut next_dirty = vec![false; self.pos.len()];
             let mut bad_left = false;
-            for t in self.tri.iter() {
-                let bad = self.q(*t) < sin_bad;
+            for (t, &q) in self.tri.iter().zip(&sines) {
+                let bad = q < sin_bad;
                 bad_left |= bad;
                 if bad || t.iter().any(|&v| moved.get(v as usize).is_none_or(|&m| m)) {
                     for &v in t {
@@ -1725,19 +1764,25 @@ impl<'a> Stage<'a> {
         for _ in 0..ODT_ROUNDS {
             let mut moved_now = vec![false; self.pos.len()];
             for v in 0..self.pos.len() as u32 {
-                if !active[v as usize] || !self.free(v) || !self.star(v, &mut star) {
+                if !active[v as usize]
+                    || !self.free(v)
+                    || !self.star(v, &mut star)
+                    || !(3..=MAX_FAN).contains(&star.len())
+                {
+                    continue;
+                }
+                let p = self.p(v);
+                let Some(target) = self.odt_target(v, &star, &spacing) else {
+                    continue;
+                };
+                // Most targets are this near (`ODT_SETTLE`): the fan is gathered only for
+                // the others.
+                if p.distance(target) < ODT_SETTLE * spacing[v as usize] {
                     continue;
                 }
                 let Some(fan) = Fan::closed(self, &star) else {
                     continue;
                 };
-                let p = self.p(v);
-                let Some(target) = self.odt_target(v, &star, &fan, &spacing) else {
-                    continue;
-                };
-                if p.distance(target) < ODT_SETTLE * spacing[v as usize] {
-                    continue;
-                }
                 let Some((sp, sn)) = project(surface, target) else {
                     continue;
                 };
@@ -1756,20 +1801,19 @@ impl<'a> Stage<'a> {
         moved
     }
 
-    /// The ODT position of free vertex v (fan `star`, gathered in `fan`), in the tangent
-    /// plane at v; None for a fan without area.
-    fn odt_target(&self, v: u32, star: &[u32], fan: &Fan, spacing: &[f64]) -> Option<DVec3> {
+    /// The ODT position of free vertex v (closed fan `star`), in the tangent plane at v;
+    /// None for a fan without area.
+    fn odt_target(&self, v: u32, star: &[u32], spacing: &[f64]) -> Option<DVec3> {
         let p = self.p(v);
         let (mut sum, mut weight) = (DVec3::ZERO, 0.0);
-        for (i, &e) in star.iter().enumerate() {
-            let (a, b) = (fan.ring[i], fan.ring[i + 1]);
+        for &e in star {
+            // The fan's triangle (v, i, j).
+            let (i, j) = (self.dst(e) as usize, self.org(prev(e)) as usize);
+            let (a, b) = (self.pos[i], self.pos[j]);
             let Some(centre) = circumcentre(p, a, b) else {
                 continue;
             };
-            let s = (spacing[v as usize]
-                + spacing[self.dst(e) as usize]
-                + spacing[self.org(prev(e)) as usize])
-                / 3.0;
+            let s = (spacing[v as usize] + spacing[i] + spacing[j]) / 3.0;
             let w = (a - p).cross(b - p).length() / s.powi(4);
             sum += w * centre;
             weight += w;
