@@ -540,18 +540,19 @@ impl<'a> Stage<'a> {
         if c == d || self.constrained(a, b) {
             return false;
         }
-        let [pa, pb, pc, pd] = [a, b, c, d].map(|v| self.p(v));
         let (nt, nu) = ([a, d, c], [d, b, c]);
         let old = || self.q([a, b, c]).min(self.q([b, a, d]));
+        // The cheap tests first (most edges fail them): the valences before the vertices'
+        // flags and positions.
         if let Some(floor) = valence_floor {
-            if ![a, b, c, d].iter().all(|&v| self.free(v)) {
-                return false;
-            }
             let val = |v: u32| self.valence[v as usize] as f64;
             let en = |x: f64| (x - 6.0) * (x - 6.0);
             let before = en(val(a)) + en(val(b)) + en(val(c)) + en(val(d));
             let after = en(val(a) - 1.0) + en(val(b) - 1.0) + en(val(c) + 1.0) + en(val(d) + 1.0);
             if after >= before {
+                return false;
+            }
+            if ![a, b, c, d].iter().all(|&v| self.free(v)) {
                 return false;
             }
             if self.q(nt).min(self.q(nu)) < old().min(floor) {
@@ -560,6 +561,7 @@ impl<'a> Stage<'a> {
         } else {
             // sin(α + β) of the angles at c and d opposite a–b, without inverse cosines:
             // α + β > π + margin exactly where it is below −sin(margin).
+            let [pa, pb, pc, pd] = [a, b, c, d].map(|v| self.p(v));
             let (u1, v1, u2, v2) = (pa - pc, pb - pc, pa - pd, pb - pd);
             let lens = u1.length() * v1.length() * u2.length() * v2.length();
             let sin_sum = u1.cross(v1).length() * u2.dot(v2) + u1.dot(v1) * u2.cross(v2).length();
@@ -583,7 +585,7 @@ impl<'a> Stage<'a> {
         if self.edge_exists(c, d) {
             return false;
         }
-        if !midpoint_within(surface, pc, pd, tolerance) {
+        if !midpoint_within(surface, self.p(c), self.p(d), tolerance) {
             return false;
         }
         let [o_ad, o_db, o_bc, o_ca] = self.outer(e, f);
@@ -1683,16 +1685,14 @@ impl<'a> Stage<'a> {
                 if f == NONE {
                     continue;
                 }
-                let quad = [
-                    self.org(e),
-                    self.dst(e),
-                    self.org(prev(e)),
-                    self.org(prev(f)),
-                ];
                 if self.try_flip_as(e, surface, limits.tolerance, Some(sin_bad)) {
                     report.flips += 1;
-                    for v in quad {
-                        dirty[v as usize] = true;
+                    // The flipped pair's triangles keep their slots: their corners are the
+                    // quad's four.
+                    for t in [e / 3, f / 3] {
+                        for v in self.tri[t as usize] {
+                            dirty[v as usize] = true;
+                        }
                     }
                 }
             }
@@ -1810,11 +1810,11 @@ impl<'a> Stage<'a> {
             // The fan's triangle (v, i, j).
             let (i, j) = (self.dst(e) as usize, self.org(prev(e)) as usize);
             let (a, b) = (self.pos[i], self.pos[j]);
-            let Some(centre) = circumcentre(p, a, b) else {
+            let Some((centre, normal)) = circumcentre_and_normal(p, a, b) else {
                 continue;
             };
             let s = (spacing[v as usize] + spacing[i] + spacing[j]) / 3.0;
-            let w = (a - p).cross(b - p).length() / s.powi(4);
+            let w = normal.length() / s.powi(4);
             sum += w * centre;
             weight += w;
         }
@@ -2055,13 +2055,20 @@ fn face_point(
 
 /// The circumcentre of triangle (a, b, c), or None if degenerate.
 fn circumcentre(a: DVec3, b: DVec3, c: DVec3) -> Option<DVec3> {
+    circumcentre_and_normal(a, b, c).map(|(centre, _)| centre)
+}
+
+/// The circumcentre of triangle (a, b, c) and the normal (b − a) × (c − a) it is computed
+/// from (twice the area as its length), or None if degenerate.
+fn circumcentre_and_normal(a: DVec3, b: DVec3, c: DVec3) -> Option<(DVec3, DVec3)> {
     let (u, v) = (b - a, c - a);
     let n = u.cross(v);
     let d = 2.0 * n.length_squared();
     if d <= 0.0 {
         return None;
     }
-    Some(a + (u.length_squared() * v.cross(n) + v.length_squared() * n.cross(u)) / d)
+    let centre = a + (u.length_squared() * v.cross(n) + v.length_squared() * n.cross(u)) / d;
+    Some((centre, n))
 }
 
 /// Barycentric coordinates of o (projected into the plane of a, b, c).
