@@ -147,6 +147,8 @@ pub(super) struct Report {
     pub polish_rounds: u32,
     /// Seconds the rounds proper took (the rest of the stage is `polish`).
     pub rounds_seconds: f64,
+    /// Seconds the ODT smoothing took (between the two passes of `polish`).
+    pub odt_seconds: f64,
     /// Why the stage stopped.
     pub stop: &'static str,
 }
@@ -1632,7 +1634,9 @@ impl<'a> Stage<'a> {
             project,
             &mut report,
         );
+        let odt_started = std::time::Instant::now();
         let moved = self.odt(limits.tolerance, surface, project, &mut report);
+        report.odt_seconds = odt_started.elapsed().as_secs_f64();
         let dirty = self.grow(&moved);
         self.polish(dirty, limits, surface, project, &mut report);
         report.below_after = bad_count(self);
