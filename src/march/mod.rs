@@ -417,7 +417,7 @@ fn improve(
     }
     if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
         eprintln!(
-            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es), {} removed in {} round(s) ({:.3} s) and {} for the radius ratios with {} ODT move(s), {:.3} s in all; stopped: {}",
+            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es), {} removed in {} round(s) ({:.3} s) and {} for the radius ratios with {} ODT move(s) ({:.3} s of ODT), {:.3} s in all; stopped: {}",
             report.below_before,
             limits.angle.to_degrees(),
             report.below_after,
@@ -429,6 +429,7 @@ fn improve(
             report.rounds_seconds,
             report.polish_rounds,
             report.odt_moves,
+            report.odt_seconds,
             started.elapsed().as_secs_f64(),
             report.stop
         );

@@ -147,6 +147,8 @@ pub(super) struct Report {
     pub polish_rounds: u32,
     /// Seconds the rounds proper took (the rest of the stage is `polish`).
     pub rounds_seconds: f64,
+    /// Seconds the ODT smoothing took (between the two passes of `polish`).
+    pub odt_seconds: f64,
     /// Why the stage stopped.
     pub stop: &'static str,
     /// The triangles left below the target whose corners are all free, as (centroid, the
@@ -263,20 +265,27 @@ impl<'a> Stage<'a> {
         let mut twin = vec![NONE; 3 * tri.len()];
         let mut out = vec![NONE; n];
         let mut frozen = vec![false; n];
-        let dst = |e: u32| tri[(e / 3) as usize][(next(e) % 3) as usize];
+        // The destination of each listed half-edge, beside it: the searches below read
+        // their vertices' lists in order instead of chasing each half-edge into `tri`
+        // (on the fine sphere that chase was most of this function's time).
+        let list_dst: Vec<u32> = list
+            .iter()
+            .map(|&e| tri[(e / 3) as usize][(next(e) % 3) as usize])
+            .collect();
+        let range = |v: usize| start[v] as usize..start[v + 1] as usize;
         for a in 0..n {
-            let outs = &list[start[a] as usize..start[a + 1] as usize];
-            if let Some(&e) = outs.first() {
-                out[a] = e;
+            let outs = range(a);
+            if !outs.is_empty() {
+                out[a] = list[outs.start];
             }
-            for &e in outs {
-                let b = dst(e) as usize;
-                let same = outs.iter().filter(|&&f| dst(f) as usize == b).count();
-                let mut back = list[start[b] as usize..start[b + 1] as usize]
+            for i in outs.clone() {
+                let (e, b) = (list[i], list_dst[i] as usize);
+                let same = list_dst[outs.clone()]
                     .iter()
-                    .copied()
-                    .filter(|&f| dst(f) as usize == a);
-                let (first, more) = (back.next(), back.next().is_some());
+                    .filter(|&&d| d as usize == b)
+                    .count();
+                let mut back = range(b).filter(|&j| list_dst[j] as usize == a);
+                let (first, more) = (back.next().map(|j| list[j]), back.next().is_some());
                 if let (1, false, Some(f)) = (same, more, first) {
                     twin[e as usize] = f;
                 } else if same > 1 || more {
@@ -537,18 +546,19 @@ impl<'a> Stage<'a> {
         if c == d || self.constrained(a, b) {
             return false;
         }
-        let [pa, pb, pc, pd] = [a, b, c, d].map(|v| self.p(v));
         let (nt, nu) = ([a, d, c], [d, b, c]);
         let old = || self.q([a, b, c]).min(self.q([b, a, d]));
+        // The cheap tests first (most edges fail them): the valences before the vertices'
+        // flags and positions.
         if let Some(floor) = valence_floor {
-            if ![a, b, c, d].iter().all(|&v| self.free(v)) {
-                return false;
-            }
             let val = |v: u32| self.valence[v as usize] as f64;
             let en = |x: f64| (x - 6.0) * (x - 6.0);
             let before = en(val(a)) + en(val(b)) + en(val(c)) + en(val(d));
             let after = en(val(a) - 1.0) + en(val(b) - 1.0) + en(val(c) + 1.0) + en(val(d) + 1.0);
             if after >= before {
+                return false;
+            }
+            if ![a, b, c, d].iter().all(|&v| self.free(v)) {
                 return false;
             }
             if self.q(nt).min(self.q(nu)) < old().min(floor) {
@@ -557,6 +567,7 @@ impl<'a> Stage<'a> {
         } else {
             // sin(α + β) of the angles at c and d opposite a–b, without inverse cosines:
             // α + β > π + margin exactly where it is below −sin(margin).
+            let [pa, pb, pc, pd] = [a, b, c, d].map(|v| self.p(v));
             let (u1, v1, u2, v2) = (pa - pc, pb - pc, pa - pd, pb - pd);
             let lens = u1.length() * v1.length() * u2.length() * v2.length();
             let sin_sum = u1.cross(v1).length() * u2.dot(v2) + u1.dot(v1) * u2.cross(v2).length();
@@ -580,7 +591,7 @@ impl<'a> Stage<'a> {
         if self.edge_exists(c, d) {
             return false;
         }
-        if !midpoint_within(surface, pc, pd, tolerance) {
+        if !midpoint_within(surface, self.p(c), self.p(d), tolerance) {
             return false;
         }
         let [o_ad, o_db, o_bc, o_ca] = self.outer(e, f);
@@ -720,16 +731,22 @@ impl<'a> Stage<'a> {
     /// (in the tangent plane at v): where the worst triangle wants v.
     fn ideal_apex(&self, v: u32, star: &[u32]) -> DVec3 {
         let (p, n) = (self.p(v), self.normal[v as usize]);
-        star.iter()
-            .map(|&e| (self.p(self.dst(e)), self.p(self.org(prev(e)))))
-            .min_by(|x, y| min_sin(p, x.0, x.1).total_cmp(&min_sin(p, y.0, y.1)))
-            .map_or(p, |(b, c)| {
-                let d = c - b;
-                let left = n.cross(d).normalize_or_zero();
-                let m = 0.5 * (b + c);
-                let m = m - (m - p).dot(n) * n;
-                m + left * (d.length() * 3f64.sqrt() / 2.0)
-            })
+        // The first worst triangle (as `min_by` would pick it), each sine computed once.
+        let mut worst: Option<(f64, (DVec3, DVec3))> = None;
+        for &e in star {
+            let (b, c) = (self.p(self.dst(e)), self.p(self.org(prev(e))));
+            let sin = min_sin(p, b, c);
+            if worst.is_none_or(|(w, _)| sin.total_cmp(&w).is_lt()) {
+                worst = Some((sin, (b, c)));
+            }
+        }
+        worst.map_or(p, |(_, (b, c))| {
+            let d = c - b;
+            let left = n.cross(d).normalize_or_zero();
+            let m = 0.5 * (b + c);
+            let m = m - (m - p).dot(n) * n;
+            m + left * (d.length() * 3f64.sqrt() / 2.0)
+        })
     }
 
     /// Moves free vertex v to a better place on the surface. For the angle (`ratio` false:
@@ -793,18 +810,21 @@ impl<'a> Stage<'a> {
                 .sum::<DVec3>()
                 / fan.k as f64;
             let ab = s.angle_based(v, star);
-            let ideal = s.ideal_apex(v, star);
-            [
-                ab,
-                ring_mean,
-                0.5 * (p + ab),
-                0.5 * (p + ring_mean),
-                0.5 * (p + ideal),
-                0.75 * p + 0.25 * ideal,
-                0.875 * p + 0.125 * ideal,
-            ]
-            .into_iter()
-            .find(|&q| better(&fan.eval(q)))
+            [ab, ring_mean, 0.5 * (p + ab), 0.5 * (p + ring_mean)]
+                .into_iter()
+                .find(|&q| better(&fan.eval(q)))
+                .or_else(|| {
+                    // Towards the worst triangle's ideal apex, computed only when the
+                    // candidates above fail.
+                    let ideal = s.ideal_apex(v, star);
+                    [
+                        0.5 * (p + ideal),
+                        0.75 * p + 0.25 * ideal,
+                        0.875 * p + 0.125 * ideal,
+                    ]
+                    .into_iter()
+                    .find(|&q| better(&fan.eval(q)))
+                })
         };
         let target = if angle_first {
             by_angle(self).or_else(by_ratio)
@@ -1435,12 +1455,16 @@ impl<'a> Stage<'a> {
 
     // ------------------------------------------------------------ driver
 
-    /// The interior edges (one half-edge each, the lower) with an end marked in `dirty`.
-    /// Per vertex: a corner of a triangle whose smallest angle's sine is below `sin`.
-    fn corners_below(&self, sin: f64) -> Vec<bool> {
+    /// Per triangle: the sine of its smallest angle (`q`), for the scans of a round to share.
+    fn sines(&self) -> Vec<f64> {
+        self.tri.iter().map(|&t| self.q(t)).collect()
+    }
+
+    /// Per vertex: a corner of a triangle whose smallest angle's sine (`sines`) is below `sin`.
+    fn corners_below(&self, sines: &[f64], sin: f64) -> Vec<bool> {
         let mut marked = vec![false; self.pos.len()];
-        for t in self.tri.iter() {
-            if self.q(*t) < sin {
+        for (t, &q) in self.tri.iter().zip(sines) {
+            if q < sin {
                 for &v in t {
                     marked[v as usize] = true;
                 }
@@ -1452,6 +1476,10 @@ impl<'a> Stage<'a> {
     /// `marked` and the vertices that share a triangle with a marked one.
     fn grow(&self, marked: &[bool]) -> Vec<bool> {
         let mut grown = marked.to_vec();
+        // Nothing marked (the usual case once no triangle is below the target): no scan.
+        if !marked.contains(&true) {
+            return grown;
+        }
         for t in self.tri.iter() {
             if t.iter().any(|&v| marked[v as usize]) {
                 for &v in t {
@@ -1462,6 +1490,7 @@ impl<'a> Stage<'a> {
         grown
     }
 
+    /// The interior edges (one half-edge each, the lower) with an end marked in `dirty`.
     fn dirty_edges(&self, dirty: &[bool]) -> Vec<u32> {
         (0..3 * self.tri.len() as u32)
             .filter(|&e| {
@@ -1512,8 +1541,11 @@ impl<'a> Stage<'a> {
             let mut moves = 0;
             // Border vertices slide only where a triangle of theirs is below the target:
             // elsewhere the box's border is as the march placed it.
-            let bad_corner = self.corners_below(sin_bad);
-            let mut smoothed = self.corners_below(sin_poor);
+            // The triangles' sines, computed once here and kept up to date through the
+            // smoothing (only the fans of moved vertices change) for the scans after it.
+            let mut sines = self.sines();
+            let bad_corner = self.corners_below(&sines, sin_bad);
+            let mut smoothed = self.corners_below(&sines, sin_poor);
             for (s, near) in smoothed.iter_mut().zip(self.grow(&self.grow(&bad_corner))) {
                 *s |= near;
             }
@@ -1529,6 +1561,13 @@ impl<'a> Stage<'a> {
                 }
             }
             report.moves += moves;
+            if moves > 0 {
+                for (t, q) in self.tri.iter().zip(sines.iter_mut()) {
+                    if t.iter().any(|&v| moved[v as usize]) {
+                        *q = self.q(*t);
+                    }
+                }
+            }
             // 3. Insertion where a triangle is still below the target (not in the last
             // round, which flips and smooths around the last insertions).
             let last = round + 1 == limits.rounds || round + 1 == total;
@@ -1536,7 +1575,7 @@ impl<'a> Stage<'a> {
                 Vec::new()
             } else {
                 (0..self.tri.len() as u32)
-                    .filter(|&t| self.q(self.tri[t as usize]) < sin_bad)
+                    .filter(|&t| sines[t as usize] < sin_bad)
                     .collect()
             };
             let any_bad = !bad.is_empty();
@@ -1577,12 +1616,16 @@ impl<'a> Stage<'a> {
                     t += 1;
                 }
             }
+            // Insertions and removals change triangles: then the sines are computed anew.
+            if any_bad {
+                sines = self.sines();
+            }
             // What changed (moved or new vertices, triangles still bad) marks the
             // corners of the triangles around it for the next round.
             let mut next_dirty = vec![false; self.pos.len()];
             let mut bad_left = false;
-            for t in self.tri.iter() {
-                let bad = self.q(*t) < sin_bad;
+            for (t, &q) in self.tri.iter().zip(&sines) {
+                let bad = q < sin_bad;
                 bad_left |= bad;
                 if bad || t.iter().any(|&v| moved.get(v as usize).is_none_or(|&m| m)) {
                     for &v in t {
@@ -1620,7 +1663,9 @@ impl<'a> Stage<'a> {
             project,
             &mut report,
         );
+        let odt_started = std::time::Instant::now();
         let moved = self.odt(limits.tolerance, surface, project, &mut report);
+        report.odt_seconds = odt_started.elapsed().as_secs_f64();
         let dirty = self.grow(&moved);
         self.polish(dirty, limits, surface, project, &mut report);
         report.below_after = bad_count(self);
@@ -1682,16 +1727,14 @@ impl<'a> Stage<'a> {
                 if f == NONE {
                     continue;
                 }
-                let quad = [
-                    self.org(e),
-                    self.dst(e),
-                    self.org(prev(e)),
-                    self.org(prev(f)),
-                ];
                 if self.try_flip_as(e, surface, limits.tolerance, Some(sin_bad)) {
                     report.flips += 1;
-                    for v in quad {
-                        dirty[v as usize] = true;
+                    // The flipped pair's triangles keep their slots: their corners are the
+                    // quad's four.
+                    for t in [e / 3, f / 3] {
+                        for v in self.tri[t as usize] {
+                            dirty[v as usize] = true;
+                        }
                     }
                 }
             }
@@ -1763,19 +1806,25 @@ impl<'a> Stage<'a> {
         for _ in 0..ODT_ROUNDS {
             let mut moved_now = vec![false; self.pos.len()];
             for v in 0..self.pos.len() as u32 {
-                if !active[v as usize] || !self.free(v) || !self.star(v, &mut star) {
+                if !active[v as usize]
+                    || !self.free(v)
+                    || !self.star(v, &mut star)
+                    || !(3..=MAX_FAN).contains(&star.len())
+                {
+                    continue;
+                }
+                let p = self.p(v);
+                let Some(target) = self.odt_target(v, &star, &spacing) else {
+                    continue;
+                };
+                // Most targets are this near (`ODT_SETTLE`): the fan is gathered only for
+                // the others.
+                if p.distance(target) < ODT_SETTLE * spacing[v as usize] {
                     continue;
                 }
                 let Some(fan) = Fan::closed(self, &star) else {
                     continue;
                 };
-                let p = self.p(v);
-                let Some(target) = self.odt_target(v, &star, &fan, &spacing) else {
-                    continue;
-                };
-                if p.distance(target) < ODT_SETTLE * spacing[v as usize] {
-                    continue;
-                }
                 let Some((sp, sn)) = project(surface, target) else {
                     continue;
                 };
@@ -1794,21 +1843,20 @@ impl<'a> Stage<'a> {
         moved
     }
 
-    /// The ODT position of free vertex v (fan `star`, gathered in `fan`), in the tangent
-    /// plane at v; None for a fan without area.
-    fn odt_target(&self, v: u32, star: &[u32], fan: &Fan, spacing: &[f64]) -> Option<DVec3> {
+    /// The ODT position of free vertex v (closed fan `star`), in the tangent plane at v;
+    /// None for a fan without area.
+    fn odt_target(&self, v: u32, star: &[u32], spacing: &[f64]) -> Option<DVec3> {
         let p = self.p(v);
         let (mut sum, mut weight) = (DVec3::ZERO, 0.0);
-        for (i, &e) in star.iter().enumerate() {
-            let (a, b) = (fan.ring[i], fan.ring[i + 1]);
-            let Some(centre) = circumcentre(p, a, b) else {
+        for &e in star {
+            // The fan's triangle (v, i, j).
+            let (i, j) = (self.dst(e) as usize, self.org(prev(e)) as usize);
+            let (a, b) = (self.pos[i], self.pos[j]);
+            let Some((centre, normal)) = circumcentre_and_normal(p, a, b) else {
                 continue;
             };
-            let s = (spacing[v as usize]
-                + spacing[self.dst(e) as usize]
-                + spacing[self.org(prev(e)) as usize])
-                / 3.0;
-            let w = (a - p).cross(b - p).length() / s.powi(4);
+            let s = (spacing[v as usize] + spacing[i] + spacing[j]) / 3.0;
+            let w = normal.length() / s.powi(4);
             sum += w * centre;
             weight += w;
         }
@@ -1913,9 +1961,13 @@ impl Fan {
         let mut grad = DVec3::ZERO;
         let mut u = self.ring[0] - p;
         let mut x = u.length();
+        // With `GRAD`, 1/x, carried over as 1/z of the triangle before: the gradient
+        // multiplies by reciprocals, three divisions a triangle instead of eighteen.
+        let mut inv_x = if GRAD { 1.0 / x } else { 0.0 };
         for i in 0..self.k {
             let w = self.ring[i + 1] - p;
             let (y, z) = (self.opp[i], w.length());
+            let inv_z = if GRAD { 1.0 / z } else { 0.0 };
             let c = u.cross(w);
             let area2 = c.length_squared();
             let xyz = x * y * z;
@@ -1930,11 +1982,15 @@ impl Fan {
             q.worst_rr = q.worst_rr.min(rr);
             q.sum += rr;
             if GRAD && rr > 0.0 {
-                let (gx, gz) = (-u / x, -w / z);
+                // −∇x = u/x and −∇z = w/z, the unit vectors along the two edges at p.
+                let (ux, wz) = (u * inv_x, w * inv_z);
                 grad += rr
-                    * (2.0 * (u - w).cross(c) / area2 - gx / x - gz / z - (gx + gz) / (x + y + z));
+                    * ((u - w).cross(c) * (2.0 / area2)
+                        + ux * inv_x
+                        + wz * inv_z
+                        + (ux + wz) * (1.0 / (x + y + z)));
             }
-            (u, x) = (w, z);
+            (u, x, inv_x) = (w, z, inv_z);
         }
         (q, grad)
     }
@@ -2049,13 +2105,20 @@ fn face_point(
 
 /// The circumcentre of triangle (a, b, c), or None if degenerate.
 fn circumcentre(a: DVec3, b: DVec3, c: DVec3) -> Option<DVec3> {
+    circumcentre_and_normal(a, b, c).map(|(centre, _)| centre)
+}
+
+/// The circumcentre of triangle (a, b, c) and the normal (b − a) × (c − a) it is computed
+/// from (twice the area as its length), or None if degenerate.
+fn circumcentre_and_normal(a: DVec3, b: DVec3, c: DVec3) -> Option<(DVec3, DVec3)> {
     let (u, v) = (b - a, c - a);
     let n = u.cross(v);
     let d = 2.0 * n.length_squared();
     if d <= 0.0 {
         return None;
     }
-    Some(a + (u.length_squared() * v.cross(n) + v.length_squared() * n.cross(u)) / d)
+    let centre = a + (u.length_squared() * v.cross(n) + v.length_squared() * n.cross(u)) / d;
+    Some((centre, n))
 }
 
 /// Barycentric coordinates of o (projected into the plane of a, b, c).
