@@ -78,7 +78,9 @@ pub struct MarchSettings {
     /// meet it at their steps).
     pub tolerance: f64,
     /// A mesh that fails its verification is re-marched with the local step capped near the
-    /// failures, at most this many times, then refused. Default 4.
+    /// failures, at most this many times, then refused. Default 4. Triangles the quality
+    /// stage leaves below `quality_angle` with only free corners are refined the same way
+    /// (while that lowers their number; then the right mesh is returned with a warning).
     pub refine_rounds: u32,
     /// A failure caps the local step near it at this fraction of the step its triangle was
     /// made with. Default 0.5.
