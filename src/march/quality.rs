@@ -1,9 +1,10 @@
 //! The quality stage between the march and the verification (issue 13): restricted-Delaunay
-//! edge flips, angle-based smoothing of free vertices on the surface, and insertion of
-//! off-centres where a triangle stays below the target angle; then, for the mean radius
-//! ratio (issue 10, M4), valence flips and smoothing up the gradient of each fan's radius
-//! ratios under a guard that cannot lower the smallest angle below min(target, what the
-//! rounds reached) (`Stage::polish`), with a smoothing towards the optimal Delaunay
+//! edge flips, angle-based smoothing of free vertices on the surface, insertion of
+//! off-centres where a triangle stays below the target angle, and the merge of a free corner
+//! into a neighbour where insertion cannot mend it (`Stage::remove_corner`); then, for the
+//! mean radius ratio (issue 10, M4), valence flips and smoothing up the gradient of each
+//! fan's radius ratios under a guard that cannot lower the smallest angle below min(target,
+//! what the rounds reached) (`Stage::polish`), with a smoothing towards the optimal Delaunay
 //! triangulation between its two passes (`Stage::odt`).
 //!
 //! Input: the marcher's triangulation (vertices exactly on the surface, normals ∇f/|∇f|,
@@ -16,7 +17,8 @@
 //! polygon vertices is never flipped or split, so polygons and box borders stay edges of the
 //! mesh, bit for bit; the topology does not change (a flip replaces two triangles by two, a
 //! move keeps incidences, an insertion splits one triangle into three or an edge's two
-//! triangles into four: χ, boundary loops and components stay); every change keeps each
+//! triangles into four, a removal takes a vertex, three edges and two triangles where the
+//! link allows it: χ, boundary loops and components stay); every change keeps each
 //! touched triangle facing the side ∇f points to at its corners. Work is bounded (flip
 //! budgets, `rounds`, `max_inserted`, `ODT_ROUNDS`) and done in index order: the output is deterministic.
 //! The verification (`verify.rs`) still checks the result: the stage does not have to be
@@ -1510,9 +1512,8 @@ impl<'a> Stage<'a> {
     ) -> Report {
         let sin_bad = limits.angle.sin();
         self.bad_sin2 = sin_bad * sin_bad;
-        let bad_count = |s: &Self| s.tri.iter().filter(|&&t| s.q(t) < sin_bad).count();
         let mut report = Report {
-            below_before: bad_count(self),
+            below_before: self.tri.iter().filter(|&&t| self.q(t) < sin_bad).count(),
             stop: "no triangle below the target",
             ..Report::default()
         };
@@ -1595,8 +1596,8 @@ impl<'a> Stage<'a> {
                     }
                 }
             }
-            // 4. Removal of the free corner of a bad triangle that rests on an edge no flip
-            // may change (a polygon's or the box's), where insertion did not mend it.
+            // 4. Removal of a free corner of a bad triangle (merged into another corner of it),
+            // where insertion did not mend it.
             if any_bad {
                 let mut t = 0;
                 while t < self.tri.len() as u32 {
@@ -1668,16 +1669,18 @@ impl<'a> Stage<'a> {
         report.odt_seconds = odt_started.elapsed().as_secs_f64();
         let dirty = self.grow(&moved);
         self.polish(dirty, limits, surface, project, &mut report);
-        report.below_after = bad_count(self);
-        report.poor = self
-            .tri
-            .iter()
-            .filter(|&&t| self.q(t) < sin_bad && t.iter().all(|&v| self.free(v)))
-            .map(|&t| {
+        // The triangles left below the target, in one scan: how many, and where those with
+        // only free corners are.
+        for &t in self.tri.iter() {
+            if self.q(t) >= sin_bad {
+                continue;
+            }
+            report.below_after += 1;
+            if t.iter().all(|&v| self.free(v)) {
                 let centroid = self.corners(t).iter().sum::<DVec3>() / 3.0;
-                (centroid, self.h_of(&t))
-            })
-            .collect();
+                report.poor.push((centroid, self.h_of(&t)));
+            }
+        }
         report
     }
 
