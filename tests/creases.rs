@@ -783,6 +783,8 @@ fn random_csg(smooth: bool, seed: u64, default_cases: usize) {
     // The quality of the right meshes (issue 13's bar, reported): how many have a triangle
     // below 30°, and the smallest angle of all.
     let (mut below_30, mut lowest) = (0, f64::INFINITY);
+    // Right meshes with a triangle below 30° that no warning told the user of.
+    let mut unwarned: Vec<usize> = Vec::new();
     let mut wrong: Vec<String> = Vec::new();
     let (mut drawn, mut tangent, mut flat, mut crowded, mut outside) = (0, 0, 0, 0, 0);
     let mut rng = Rng(seed);
@@ -844,6 +846,12 @@ fn random_csg(smooth: bool, seed: u64, default_cases: usize) {
                 if angle < 30.0 {
                     eprintln!("case {case}: smallest angle {angle:.1}°\n{source}");
                     below_30 += 1;
+                    let told = meshed
+                        .as_ref()
+                        .is_some_and(|m| m.warnings.iter().any(|w| w.contains("stay below")));
+                    if !told {
+                        unwarned.push(case);
+                    }
                 }
                 lowest = lowest.min(angle);
             }
@@ -878,6 +886,10 @@ fn random_csg(smooth: bool, seed: u64, default_cases: usize) {
     assert!(
         wrong.is_empty(),
         "wrong meshes reported as success: {wrong:#?}"
+    );
+    assert!(
+        unwarned.is_empty(),
+        "right meshes with a triangle below 30° and no warning: cases {unwarned:?}"
     );
     assert!(right >= refused, "most cases should mesh");
     // The reference must check nearly every case: at most 5 % skipped.

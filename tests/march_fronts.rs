@@ -226,3 +226,47 @@ fn badly_spaced_or_off_surface_polygons_are_errors() {
         "{e:?}"
     );
 }
+
+/// A polygon with a 15° corner (a curved triangle on the cylinder: an arc of the circle
+/// z = 0, a vertical side, and a helix back at 15° to the arc): the triangle at the corner
+/// cannot reach 30°, and since no refinement moves a polygon vertex the mesh is right but
+/// says so in a warning with the smallest angle and its place (issue 13: no triangle below
+/// the bar goes unreported).
+#[test]
+fn a_sharp_polygon_corner_is_reported_in_a_warning() {
+    let (step, arc) = (0.1, 1.0);
+    let rise = arc * 15f64.to_radians().tan();
+    let on_cylinder = |theta: f64, z: f64| DVec3::new(theta.cos(), theta.sin(), z);
+    // Counter-clockwise in (θ, z) seen from outside, where ∇f points: the area on the left.
+    let mut poly = Vec::new();
+    let n = samples(arc, step);
+    poly.extend((0..n).map(|i| on_cylinder(arc * i as f64 / n as f64, 0.0)));
+    let up = samples(rise, step);
+    poly.extend((0..up).map(|i| on_cylinder(arc, rise * i as f64 / up as f64)));
+    let back = samples((arc * arc + rise * rise).sqrt(), step);
+    poly.extend((0..back).map(|i| {
+        let s = 1.0 - i as f64 / back as f64;
+        on_cylinder(arc * s, rise * s)
+    }));
+    let mut s = cylinder(1.0);
+    let m = surfc::march::march_verified(
+        s.as_mut(),
+        &input(step, poly, vec![]),
+        &MarchSettings::default(),
+        None,
+    )
+    .expect("the wedge meshes");
+    let smallest = surfc::mesh::quality::quality(&m.mesh).min_angle_deg;
+    // The corner's angle between its first chords, a little off 15° on the curved surface.
+    assert!(smallest < 15.1, "smallest angle {smallest}°");
+    assert_eq!(m.warnings.len(), 1, "{:?}", m.warnings);
+    let w = &m.warnings[0];
+    assert!(
+        w.contains("triangle(s) with a corner on a polygon, a crease or the box stay below 30.0°"),
+        "{w}"
+    );
+    assert!(
+        w.contains(&format!("the smallest angle is {smallest:.1}° near")),
+        "{w}"
+    );
+}

@@ -288,7 +288,7 @@ pub fn march_verified(
             }
         };
         peak_triangles = peak_triangles.max(marched.mesh.triangles.len() as u64);
-        let poor = improve(surface, &mut marched, input, settings, tolerance);
+        let Leftovers { poor, held } = improve(surface, &mut marched, input, settings, tolerance);
         let verdict = verify::verify(surface, &marched, tolerance, step, &settings.surface_point);
         // A chord error above the tolerance may be a wrong mesh (a cap over a neck thinner
         // than the step): refined like one, and with the uniform step (which cannot refine)
@@ -309,6 +309,12 @@ pub fn march_verified(
                 warnings.push(format!(
                     "{} triangle(s) with no given corner stay below {:.1}° near {at} after {round} refinement(s) of the local step",
                     poor.len(),
+                    settings.quality_angle.to_degrees()
+                ));
+            }
+            if let Some((count, worst, at)) = held {
+                warnings.push(format!(
+                    "{count} triangle(s) with a corner on a polygon, a crease or the box stay below {:.1}°: the smallest angle is {worst:.1}° near {at}",
                     settings.quality_angle.to_degrees()
                 ));
             }
@@ -376,18 +382,27 @@ pub fn march_verified(
     }
 }
 
+/// The triangles the quality stage left below its angle.
+#[derive(Default)]
+struct Leftovers {
+    /// Those with no given corner, as (centroid, local step): refined like flaws.
+    poor: Vec<(DVec3, f64)>,
+    /// Those with a corner the stage may not move (on a polygon, a crease or the box): how
+    /// many, and the worst as (smallest angle in degrees, centroid). A warning.
+    held: Option<(usize, f64, DVec3)>,
+}
+
 /// The quality stage (`quality.rs`) over a finished triangulation; what it did goes to
-/// `SURFC_TRACE`. Returns the triangles it left below its angle with no given corner, as
-/// (centroid, local step).
+/// `SURFC_TRACE`. Returns the triangles it left below its angle.
 fn improve(
     surface: &mut dyn Surface,
     m: &mut marcher::Triangulation,
     input: &MarchInput,
     settings: &MarchSettings,
     tolerance: f64,
-) -> Vec<(DVec3, f64)> {
+) -> Leftovers {
     if settings.quality_angle <= 0.0 {
-        return Vec::new();
+        return Leftovers::default();
     }
     let limits = quality::Limits {
         angle: settings.quality_angle.min(std::f64::consts::FRAC_PI_3),
@@ -434,5 +449,10 @@ fn improve(
             report.stop
         );
     }
-    report.poor
+    Leftovers {
+        held: report
+            .worst_held
+            .map(|(sin, at)| (report.held, sin.asin().to_degrees(), at)),
+        poor: report.poor,
+    }
 }

@@ -157,6 +157,12 @@ pub(super) struct Report {
     /// largest local step of its corners): no given corner excuses them, so the march's
     /// loop refines the local step there (`march_verified`).
     pub poor: Vec<(DVec3, f64)>,
+    /// How many triangles are left below the target with a corner the stage may not move
+    /// (a polygon vertex, a border point on the box, a corner at a non-manifold edge), and
+    /// the worst of them as (sine of its smallest angle, centroid): no refinement of the
+    /// local step moves those corners, so the user is told (`march_verified`'s warning).
+    pub held: usize,
+    pub worst_held: Option<(f64, DVec3)>,
 }
 
 /// sin of the smallest angle of triangle (a, b, c): the smallest angle is opposite the
@@ -1669,16 +1675,22 @@ impl<'a> Stage<'a> {
         report.odt_seconds = odt_started.elapsed().as_secs_f64();
         let dirty = self.grow(&moved);
         self.polish(dirty, limits, surface, project, &mut report);
-        // The triangles left below the target, in one scan: how many, and where those with
-        // only free corners are.
+        // The triangles left below the target, in one scan: how many, where those with only
+        // free corners are, and the worst of the others.
         for &t in self.tri.iter() {
-            if self.q(t) >= sin_bad {
+            let q = self.q(t);
+            if q >= sin_bad {
                 continue;
             }
             report.below_after += 1;
+            let centroid = self.corners(t).iter().sum::<DVec3>() / 3.0;
             if t.iter().all(|&v| self.free(v)) {
-                let centroid = self.corners(t).iter().sum::<DVec3>() / 3.0;
                 report.poor.push((centroid, self.h_of(&t)));
+            } else {
+                report.held += 1;
+                if report.worst_held.is_none_or(|(w, _)| q < w) {
+                    report.worst_held = Some((q, centroid));
+                }
             }
         }
         report
