@@ -44,6 +44,7 @@ use super::creases::merge;
 use super::sizing::Sizing;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Marched, Start};
 use crate::mesh::Mesh;
+use crate::mesh::bits::BitsHash;
 use crate::mesh::check::intersecting_pairs;
 use crate::mesh::quality;
 use crate::mesh::topology::topology;
@@ -597,7 +598,7 @@ fn march_pieces(
 /// Which vertices of `mesh` are cut polygon vertices.
 fn on_cuts(mesh: &Mesh, cuts: &[Cut]) -> Vec<bool> {
     let bits = |p: &DVec3| p.to_array().map(f64::to_bits);
-    let cut: HashSet<[u64; 3]> = cuts
+    let cut: HashSet<[u64; 3], BitsHash> = cuts
         .iter()
         .flat_map(|c| c.loops.iter().flatten())
         .map(bits)
