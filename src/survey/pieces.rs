@@ -47,7 +47,7 @@ use crate::mesh::Mesh;
 use crate::mesh::bits::BitsHash;
 use crate::mesh::check::intersecting_pairs;
 use crate::mesh::quality;
-use crate::mesh::topology::topology;
+use crate::mesh::topology::{Topology, topology};
 use crate::solve::SurfacePoint;
 use crate::solve::curve::{self, CurveError};
 use crate::solve::surfacepoint::tangent_frame;
@@ -84,6 +84,9 @@ pub struct Pieced {
     pub cuts: Vec<Vec<DVec3>>,
     /// The axis cut across (0, 1, 2 for x, y, z) and the planes' positions along it.
     pub planes: Option<(usize, Vec<f64>)>,
+    /// The joined mesh's topology as the join checked it (None when marched whole): the
+    /// report takes it rather than computing it again.
+    pub topology: Option<Topology>,
 }
 
 /// Why a component was marched whole; only for the trace.
@@ -195,6 +198,7 @@ pub fn march(
         pieces: 1,
         cuts: Vec::new(),
         planes: None,
+        topology: None,
     })
 }
 
@@ -592,6 +596,7 @@ fn march_pieces(
         pieces: n,
         cuts: cuts.iter().flat_map(|c| c.loops.iter().cloned()).collect(),
         planes: Some((axis, planes)),
+        topology: Some(topo),
     })
 }
 
