@@ -88,7 +88,7 @@ fn coarse_sphere() {
         closed(2),
     );
     assert!(m.triangles.len() < 200, "{}", m.triangles.len());
-    let report = MeshReport::new(&m, s.as_mut());
+    let report = MeshReport::new(&m, s.as_mut(), None);
     assert_eq!(report.triangles, m.triangles.len());
     assert_eq!((report.euler_characteristic, report.components), (2, 1));
     assert_eq!((report.boundary_edges, report.boundary_loops), (0, 0));

@@ -26,6 +26,7 @@ use crate::mesh::quality::MeshReport;
 use crate::mesh::summary::{
     MeshSummary, Progress, estimate_triangles, format_stats, format_summary,
 };
+use crate::mesh::topology::Topology;
 use crate::mesh::write::{Format, target, write_mesh_file};
 use crate::mesh::{Mesh, NamedMesh, net};
 use crate::sema::program::{MeshDef, Program, SurfaceRef};
@@ -510,7 +511,7 @@ fn mesh_block(
             source,
             def,
             &mut surface,
-            out.mesh,
+            (out.mesh, None),
             out.max_chord_error,
             out.warnings,
             started,
@@ -579,7 +580,7 @@ fn mesh_block(
                 source,
                 def,
                 &mut surface,
-                found.mesh,
+                (found.mesh, None),
                 found.max_chord_error,
                 warnings,
                 started,
@@ -619,7 +620,7 @@ fn mesh_block(
         source,
         def,
         &mut surface,
-        marched.mesh,
+        (marched.mesh, pieced.topology),
         marched.max_chord_error,
         warnings,
         started,
@@ -631,19 +632,20 @@ fn mesh_block(
 /// What the user may change when no surface point is found near `start`.
 const START_HELP: &str = "move `start` nearer the surface, or give the mesh a `box` and no `start` to mesh every component in it";
 
-/// The meshed block with its report.
+/// The meshed block with its report; the mesh comes with its topology where the march
+/// computed it already (the join of pieces).
 #[allow(clippy::too_many_arguments)]
 fn finish(
     program: &Program,
     source: &str,
     def: &MeshDef,
     surface: &mut CompiledSurface,
-    mesh: Mesh,
+    (mesh, topology): (Mesh, Option<Topology>),
     max_chord_error: f64,
     warnings: Vec<String>,
     started: Instant,
 ) -> Meshed {
-    let report = MeshReport::new(&mesh, surface);
+    let report = MeshReport::new(&mesh, surface, topology);
     Meshed {
         name: def.name.clone(),
         surface: surface_name(program, source, &def.surface),

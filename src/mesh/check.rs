@@ -268,10 +268,17 @@ fn segment_crosses(p: DVec3, q: DVec3, a: DVec3, b: DVec3, c: DVec3) -> bool {
 }
 
 /// Do two triangles (given by vertex indices into `vs`) cross? Pairs sharing an edge are
-/// never reported; pairs sharing a vertex only if one folds over the other.
-fn triangles_cross(vs: &[DVec3], t: [u32; 3], u: [u32; 3]) -> bool {
+/// never reported; pairs sharing a vertex only if one folds over the other. `plane` is `t`'s
+/// plane for `beside`, made here where it is `None`: a caller testing `t` against many
+/// triangles makes it once.
+fn triangles_cross(vs: &[DVec3], t: [u32; 3], u: [u32; 3], plane: &mut Option<Plane>) -> bool {
     let shared = t.iter().filter(|i| u.contains(i)).count();
-    shared < 2 && !beside(vs, t, u) && !beside(vs, u, t) && edges_cross(vs, t, u)
+    shared < 2
+        && !plane
+            .get_or_insert_with(|| Plane::of(vs, t))
+            .beside(vs, t, u)
+        && !Plane::of(vs, u).beside(vs, u, t)
+        && edges_cross(vs, t, u)
 }
 
 /// The exact test of `triangles_cross`: does an edge of one cross the other's interior?
@@ -286,36 +293,56 @@ fn edges_cross(vs: &[DVec3], t: [u32; 3], u: [u32; 3]) -> bool {
             .any(|&(p, q)| segment_crosses(p, q, a, b, c))
 }
 
-/// Do the corners of `u` that are not corners of `t` lie strictly on one side of `t`'s
-/// plane? Then `u` meets that plane at most in the shared corners, which no segment test
-/// counts as a crossing: the cheap rejection of almost every pair of neighbours on a smooth
-/// mesh (6 edge-against-triangle tests saved). "Strictly" is a margin relative to the
-/// sizes, like `segment_crosses`'s, so a nearly coplanar pair still gets the exact test.
-fn beside(vs: &[DVec3], t: [u32; 3], u: [u32; 3]) -> bool {
-    let [a, b, c] = t.map(|i| vs[i as usize]);
-    let n = (b - a).cross(c - a);
-    // One square root for the longest side (the same bits as the largest of three lengths).
-    let reach = a
-        .distance_squared(b)
-        .max(b.distance_squared(c))
-        .max(c.distance_squared(a))
-        .sqrt();
-    let margin = 1e-9 * n.length() * reach;
-    let (mut above, mut below) = (false, false);
-    for k in u {
-        if t.contains(&k) {
-            continue;
-        }
-        let d = n.dot(vs[k as usize] - a);
-        if d > margin {
-            above = true;
-        } else if d < -margin {
-            below = true;
-        } else {
-            return false;
+/// A triangle's plane as `beside` tests against it: a corner, the normal (unnormalised) and
+/// the margin of "strictly on one side".
+struct Plane {
+    corner: DVec3,
+    normal: DVec3,
+    margin: f64,
+}
+
+impl Plane {
+    /// The plane of triangle `t`.
+    fn of(vs: &[DVec3], t: [u32; 3]) -> Plane {
+        let [a, b, c] = t.map(|i| vs[i as usize]);
+        let normal = (b - a).cross(c - a);
+        // One square root for the longest side (the same bits as the largest of three
+        // lengths).
+        let reach = a
+            .distance_squared(b)
+            .max(b.distance_squared(c))
+            .max(c.distance_squared(a))
+            .sqrt();
+        Plane {
+            corner: a,
+            normal,
+            margin: 1e-9 * normal.length() * reach,
         }
     }
-    above != below
+
+    /// Do the corners of `u` that are not corners of `t` (this plane's triangle) lie strictly
+    /// on one side of it? Then `u` meets the plane at most in the shared corners, which no
+    /// segment test counts as a crossing: the cheap rejection of almost every pair of
+    /// neighbours on a smooth mesh (6 edge-against-triangle tests saved). "Strictly" is a
+    /// margin relative to the sizes, like `segment_crosses`'s, so a nearly coplanar pair
+    /// still gets the exact test.
+    fn beside(&self, vs: &[DVec3], t: [u32; 3], u: [u32; 3]) -> bool {
+        let (mut above, mut below) = (false, false);
+        for k in u {
+            if t.contains(&k) {
+                continue;
+            }
+            let d = self.normal.dot(vs[k as usize] - self.corner);
+            if d > self.margin {
+                above = true;
+            } else if d < -self.margin {
+                below = true;
+            } else {
+                return false;
+            }
+        }
+        above != below
+    }
 }
 
 /// Every pair of triangles (index pairs, smaller first, sorted) that cross, in time linear in
@@ -332,15 +359,27 @@ fn beside(vs: &[DVec3], t: [u32; 3], u: [u32; 3]) -> bool {
 /// of one half-shell, in the grid of the coarser of the two (guest–guest pairs skipped).
 /// Each pair is looked at exactly once. The cells are linear keys `(x·ny + y)·nz + z`, so a
 /// neighbour's key is the cell's plus a constant and one sorted pass with a moving pointer
-/// per offset finds it, with no lookup structure.
+/// per offset finds it, with no lookup structure. The scans read boxes and corners copied in
+/// entry order (a cell's neighbours gathered into one list), test boxes without a branch a
+/// comparison, and make a triangle's plane for the rejection once for all its neighbours.
 pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
     let vs = &mesh.vertices;
     let tris = &mesh.triangles;
-    let boxes: Vec<(DVec3, DVec3)> = tris
-        .par_iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|k| vs[k as usize]);
-            (a.min(b).min(c), a.max(b).max(c))
+    let slot = |i: u32| {
+        let corners = tris[i as usize];
+        let [a, b, c] = corners.map(|k| vs[k as usize]);
+        Slot {
+            lo: a.min(b).min(c),
+            hi: a.max(b).max(c),
+            corners,
+            triangle: i,
+        }
+    };
+    let boxes: Vec<(DVec3, DVec3)> = (0..tris.len() as u32)
+        .into_par_iter()
+        .map(|i| {
+            let s = slot(i);
+            (s.lo, s.hi)
         })
         .collect();
     // Triangles with a non-finite corner have no place in a grid (and are no surface).
@@ -364,23 +403,40 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
             present[c as usize] = true;
         }
     }
-    // One entry a triangle in its own grid, one in each coarser grid present (guest bit 0 set,
-    // so residents come first in a cell's run).
+    // One entry a triangle in its own grid, and one in each coarser grid present with the
+    // guest bit set (so residents come first in a cell's run). A triangle not finite gets the
+    // key `NOWHERE`, sorted last and cut off: a list of known length, made in place.
     let mut entries: Vec<(u64, u32)> = boxes
         .par_iter()
+        .zip(&classes)
         .enumerate()
-        .filter(|(_, b)| finite(b))
-        .flat_map_iter(|(i, b)| {
-            let own = classes[i];
-            let (grids, present) = (&grids, &present);
-            (0..=own)
-                .filter(move |&c| present[c as usize])
-                .map(move |c| (grids.key(c, b.0) | u64::from(c != own), i as u32))
+        .map(|(i, (b, &c))| {
+            let key = if finite(b) {
+                grids.key(c, b.0)
+            } else {
+                NOWHERE
+            };
+            (key, i as u32)
         })
         .collect();
+    let guests: Vec<(u64, u32)> = boxes
+        .par_iter()
+        .zip(&classes)
+        .enumerate()
+        .filter(|&(_, (b, &own))| own > 0 && finite(b))
+        .flat_map_iter(|(i, (b, &own))| {
+            let (grids, present) = (&grids, &present);
+            (0..own)
+                .filter(move |&c| present[c as usize])
+                .map(move |c| (grids.key(c, b.0) | 1, i as u32))
+        })
+        .collect();
+    drop((boxes, classes));
+    entries.extend(guests);
     // On every thread of the pool (`--threads`); the pairs are sorted at the end, so the
     // result is the same for any number of threads.
     entries.par_sort_unstable();
+    entries.truncate(entries.partition_point(|e| e.0 != NOWHERE));
     let runs: Vec<Run> = entries
         .chunk_by(|x, y| x.0 >> 1 == y.0 >> 1)
         .scan(0u32, |at, run| {
@@ -395,16 +451,10 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
             })
         })
         .collect();
-    let test = |a: u32, b: u32, found: &mut Vec<[u32; 2]>| {
-        let (i, j) = (entries[a as usize].1, entries[b as usize].1);
-        let ((li, hi), (lj, hj)) = (boxes[i as usize], boxes[j as usize]);
-        if li.cmpgt(hj).any() || lj.cmpgt(hi).any() {
-            return;
-        }
-        if triangles_cross(vs, tris[i as usize], tris[j as usize]) {
-            found.push([i.min(j), i.max(j)]);
-        }
-    };
+    // The triangles in entry order, so that the scans below read them in memory order (their
+    // boxes made again: the same bits, and less memory than keeping them).
+    let slots: Vec<Slot> = entries.par_iter().map(|&(_, i)| slot(i)).collect();
+    drop(entries);
     const CHUNK: usize = 1 << 12;
     let mut out: Vec<[u32; 2]> = runs
         .par_chunks(CHUNK)
@@ -416,12 +466,10 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
             let mut class = u32::MAX;
             let mut offsets = [0u64; 13];
             let mut at = [0usize; 13];
+            // The neighbour runs' entries, residents first: one contiguous list to scan
+            // (a run holds a handful of entries, a neighbour run about as many).
+            let mut near: Vec<Slot> = Vec::new();
             for (k, r) in chunk.iter().enumerate() {
-                for a in r.start..r.mid {
-                    for b in a + 1..r.end {
-                        test(a, b, &mut found);
-                    }
-                }
                 let c = (r.cell >> CLASS_SHIFT) as u32;
                 if c != class {
                     class = c;
@@ -432,20 +480,44 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
                             + runs[n * CHUNK + k..].partition_point(|x| x.cell < r.cell + d);
                     }
                 }
+                let mut neighbours = [0usize; 13];
+                let mut m = 0;
+                near.clear();
                 for (p, d) in at.iter_mut().zip(offsets) {
                     let target = r.cell + d;
                     while *p < runs.len() && runs[*p].cell < target {
                         *p += 1;
                     }
-                    let Some(s) = runs.get(*p).filter(|s| s.cell == target) else {
-                        continue;
-                    };
-                    for a in r.start..r.end {
-                        // A guest meets only the other cell's residents.
-                        let to = if a < r.mid { s.end } else { s.mid };
-                        for b in s.start..to {
-                            test(a, b, &mut found);
+                    if let Some(s) = runs.get(*p).filter(|s| s.cell == target) {
+                        near.extend_from_slice(&slots[s.start as usize..s.mid as usize]);
+                        neighbours[m] = *p;
+                        m += 1;
+                    }
+                }
+                let residents = near.len();
+                for &p in &neighbours[..m] {
+                    let s = &runs[p];
+                    near.extend_from_slice(&slots[s.mid as usize..s.end as usize]);
+                }
+                // Each resident against the later entries of its cell and every neighbour
+                // entry; each guest against the neighbours' residents.
+                for a in r.start..r.end {
+                    let x = &slots[a as usize];
+                    let mut plane = None;
+                    let mut scan = |ys: &[Slot]| {
+                        for y in ys {
+                            if !apart(x, y) && triangles_cross(vs, x.corners, y.corners, &mut plane)
+                            {
+                                let (i, j) = (x.triangle, y.triangle);
+                                found.push([i.min(j), i.max(j)]);
+                            }
                         }
+                    };
+                    if a < r.mid {
+                        scan(&slots[a as usize + 1..r.end as usize]);
+                        scan(&near);
+                    } else {
+                        scan(&near[..residents]);
                     }
                 }
             }
@@ -457,6 +529,27 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
     out
 }
 
+/// A triangle's box and corners.
+#[derive(Clone, Copy)]
+struct Slot {
+    lo: DVec3,
+    hi: DVec3,
+    corners: [u32; 3],
+    triangle: u32,
+}
+
+/// Are the boxes of two slots apart? All six comparisons without a branch between them: on
+/// a mesh about one neighbour in four overlaps, and a branch a comparison mispredicts.
+#[inline(always)]
+fn apart(x: &Slot, y: &Slot) -> bool {
+    (x.lo.x > y.hi.x)
+        | (x.lo.y > y.hi.y)
+        | (x.lo.z > y.hi.z)
+        | (y.lo.x > x.hi.x)
+        | (y.lo.y > x.hi.y)
+        | (y.lo.z > x.hi.z)
+}
+
 /// One cell's entries in the sorted list: residents `start..mid`, guests `mid..end`.
 struct Run {
     /// The entry key without its guest bit.
@@ -466,6 +559,8 @@ struct Run {
     end: u32,
 }
 
+/// The key of a triangle with no cell (a corner not finite): above every cell's key.
+const NOWHERE: u64 = u64::MAX;
 /// Where the class sits in a key: above 57 bits of linear cell index and the guest bit.
 const CLASS_SHIFT: u32 = 58;
 /// Cells an axis at most (so three axes fit 57 bits), margins included.
@@ -516,8 +611,9 @@ impl Grids {
     /// The key of the cell of class `c` holding `p` (guest bit clear).
     fn key(&self, c: u32, p: DVec3) -> u64 {
         let (w, [nx, ny, nz]) = self.cells[c as usize];
-        let q = ((p - self.lo) / w).floor();
-        // Clamped (only rounding at the far side can reach past the last cell) and shifted by
+        let q = (p - self.lo) / w;
+        // Rounded down (the cast truncates, the same as the floor of a value at or above 0),
+        // clamped (only rounding at the far side can reach past the last cell) and shifted by
         // the margin cell, so that a neighbour's key is the cell's plus a constant.
         let axis = |v: f64, n: u64| (v.max(0.0) as u64).min(n - 3) + 1;
         let (x, y, z) = (axis(q.x, nx), axis(q.y, ny), axis(q.z, nz));
@@ -561,8 +657,8 @@ mod tests {
             // A neighbour sharing the edge 1–2, folded up.
             DVec3::new(2.0, 2.0, 0.5),
         ];
-        assert!(triangles_cross(&vs, [0, 1, 2], [3, 4, 5]));
-        assert!(!triangles_cross(&vs, [0, 1, 2], [2, 1, 6]));
+        assert!(triangles_cross(&vs, [0, 1, 2], [3, 4, 5], &mut None));
+        assert!(!triangles_cross(&vs, [0, 1, 2], [2, 1, 6], &mut None));
         // Sharing vertex 0 and folding back over the first triangle.
         let vs2 = vec![
             DVec3::ZERO,
@@ -571,13 +667,35 @@ mod tests {
             DVec3::new(1.0, 1.0, 0.5),
             DVec3::new(0.5, 0.2, -0.5),
         ];
-        assert!(triangles_cross(&vs2, [0, 1, 2], [0, 3, 4]));
+        assert!(triangles_cross(&vs2, [0, 1, 2], [0, 3, 4], &mut None));
         let m = Mesh {
             vertices: vs,
             normals: vec![DVec3::Z; 7],
             triangles: vec![[0, 1, 2], [3, 4, 5], [2, 1, 6]],
         };
         assert_eq!(intersecting_pairs(&m), vec![[0, 1]]);
+    }
+
+    /// A triangle with a corner not finite has no cell: it is left out (sorted last and cut
+    /// off), and the crossings among the others are still found.
+    #[test]
+    fn triangles_not_finite_are_left_out() {
+        let vs = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(0.0, 2.0, 0.0),
+            DVec3::new(0.5, 0.5, -1.0),
+            DVec3::new(0.5, 0.5, 1.0),
+            DVec3::new(1.5, 1.5, 1.0),
+            DVec3::new(f64::NAN, 0.0, 0.0),
+            DVec3::new(0.0, f64::INFINITY, 0.0),
+        ];
+        let m = Mesh {
+            normals: vec![DVec3::Z; vs.len()],
+            vertices: vs,
+            triangles: vec![[6, 0, 1], [0, 1, 2], [7, 4, 5], [3, 4, 5], [6, 7, 2]],
+        };
+        assert_eq!(intersecting_pairs(&m), vec![[1, 3]]);
     }
 
     /// The grid search with its plane rejection finds exactly the pairs that the exact test
@@ -658,6 +776,7 @@ mod tests {
                         &m.vertices,
                         m.triangles[i as usize],
                         m.triangles[j as usize],
+                        &mut None,
                     )
                 })
                 .collect();

@@ -2,6 +2,7 @@
 //! oriented so that their normals agree with ∇f. Topology and quality reports and the file
 //! writers live in submodules and see meshes only through this type.
 
+pub mod bits;
 pub mod check;
 pub mod edges;
 pub mod net;

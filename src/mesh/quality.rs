@@ -6,7 +6,7 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::Mesh;
-use super::topology::topology;
+use super::topology::{Topology, topology as topology_of};
 use crate::surface::Surface;
 
 /// The three angles of a triangle in degrees (0 for a degenerate corner).
@@ -212,21 +212,24 @@ impl From<&Quality> for MeshStats {
 }
 
 impl MeshReport {
-    /// The report of `mesh` on `surface`. Topology and shape statistics need only the mesh:
-    /// with more than one thread in the pool (`--threads`) they are computed on other threads
-    /// while this one evaluates the surface at the vertices.
-    pub fn new(mesh: &Mesh, surface: &mut dyn Surface) -> Self {
-        let (mut t, mut q, mut vertex_error) = (None, None, 0.0);
+    /// The report of `mesh` on `surface`, with the mesh's `topology` where the caller has
+    /// it already. Topology and shape statistics need only the mesh: with more than one
+    /// thread in the pool (`--threads`) they are computed on other threads while this one
+    /// evaluates the surface at the vertices.
+    pub fn new(mesh: &Mesh, surface: &mut dyn Surface, topology: Option<Topology>) -> Self {
+        let (mut t, mut q, mut vertex_error) = (topology, None, 0.0);
         if rayon::current_num_threads() > 1 {
             rayon::in_place_scope(|s| {
-                s.spawn(|_| t = Some(topology(mesh)));
+                if t.is_none() {
+                    s.spawn(|_| t = Some(topology_of(mesh)));
+                }
                 s.spawn(|_| q = Some(quality(mesh)));
                 vertex_error = max_vertex_error(mesh, surface);
             });
         } else {
             vertex_error = max_vertex_error(mesh, surface);
         }
-        let t = t.unwrap_or_else(|| topology(mesh));
+        let t = t.unwrap_or_else(|| topology_of(mesh));
         let q = q.unwrap_or_else(|| quality(mesh));
         MeshReport {
             vertices: t.used_vertices,

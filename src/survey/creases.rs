@@ -30,6 +30,7 @@ use super::sizing::Sizing;
 use super::spine::Creased;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
+use crate::mesh::bits::BitsHash;
 use crate::solve::SurfacePoint;
 use crate::solve::curve::{ArcLength, min_norm_step};
 use crate::solve::surfacepoint::tangent_frame;
@@ -383,7 +384,9 @@ const PROBES: usize = 8;
 /// every triangle around it wherever the crease is not a fold (normals less than 180° apart).
 pub(crate) fn merge(parts: &[Mesh]) -> Mesh {
     let mut out = Mesh::default();
-    let mut index: HashMap<[u64; 3], u32> = HashMap::new();
+    let vertices: usize = parts.iter().map(|p| p.vertices.len()).sum();
+    let mut index: HashMap<[u64; 3], u32, BitsHash> =
+        HashMap::with_capacity_and_hasher(vertices, BitsHash);
     let mut shared = Vec::new();
     for part in parts {
         let ids: Vec<u32> = part

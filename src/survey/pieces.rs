@@ -44,9 +44,10 @@ use super::creases::merge;
 use super::sizing::Sizing;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Marched, Start};
 use crate::mesh::Mesh;
+use crate::mesh::bits::BitsHash;
 use crate::mesh::check::intersecting_pairs;
 use crate::mesh::quality;
-use crate::mesh::topology::topology;
+use crate::mesh::topology::{Topology, topology};
 use crate::solve::SurfacePoint;
 use crate::solve::curve::{self, CurveError};
 use crate::solve::surfacepoint::tangent_frame;
@@ -83,6 +84,9 @@ pub struct Pieced {
     pub cuts: Vec<Vec<DVec3>>,
     /// The axis cut across (0, 1, 2 for x, y, z) and the planes' positions along it.
     pub planes: Option<(usize, Vec<f64>)>,
+    /// The joined mesh's topology as the join checked it (None when marched whole): the
+    /// report takes it rather than computing it again.
+    pub topology: Option<Topology>,
 }
 
 /// Why a component was marched whole; only for the trace.
@@ -194,6 +198,7 @@ pub fn march(
         pieces: 1,
         cuts: Vec::new(),
         planes: None,
+        topology: None,
     })
 }
 
@@ -591,13 +596,14 @@ fn march_pieces(
         pieces: n,
         cuts: cuts.iter().flat_map(|c| c.loops.iter().cloned()).collect(),
         planes: Some((axis, planes)),
+        topology: Some(topo),
     })
 }
 
 /// Which vertices of `mesh` are cut polygon vertices.
 fn on_cuts(mesh: &Mesh, cuts: &[Cut]) -> Vec<bool> {
     let bits = |p: &DVec3| p.to_array().map(f64::to_bits);
-    let cut: HashSet<[u64; 3]> = cuts
+    let cut: HashSet<[u64; 3], BitsHash> = cuts
         .iter()
         .flat_map(|c| c.loops.iter().flatten())
         .map(bits)

@@ -29,6 +29,8 @@ use std::str::FromStr;
 
 use glam::DVec3;
 
+use super::bits::BitsHash;
+
 use super::{Mesh, NamedMesh};
 
 pub use glb::{ROOT_NODE as GLB_ROOT_NODE, write_glb};
@@ -526,47 +528,6 @@ impl SharedPositions {
     }
 }
 
-/// A fast hash for keys made of f64 bit patterns (SipHash's resistance to chosen keys is not
-/// needed here, and it took a sixth of the time of writing an OBJ). Lookup only: no output
-/// depends on a map's iteration order.
-#[derive(Clone, Copy, Default)]
-struct BitsHash;
-
-impl std::hash::BuildHasher for BitsHash {
-    type Hasher = BitsHasher;
-    fn build_hasher(&self) -> BitsHasher {
-        BitsHasher(0)
-    }
-}
-
-/// Multiply-rotate mixing of 64-bit words (the FxHash scheme), finished with MurmurHash3's
-/// avalanche: coordinates on dyadic grids (0.5, 0.25, …) have all-zero low bits, which a bare
-/// multiply would leave zero and so crowd into one bucket.
-struct BitsHasher(u64);
-
-impl std::hash::Hasher for BitsHasher {
-    fn write(&mut self, bytes: &[u8]) {
-        for chunk in bytes.chunks(8) {
-            let mut word = [0u8; 8];
-            word[..chunk.len()].copy_from_slice(chunk);
-            self.write_u64(u64::from_le_bytes(word));
-        }
-    }
-
-    fn write_u64(&mut self, x: u64) {
-        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-
-    fn finish(&self) -> u64 {
-        let mut h = self.0;
-        h ^= h >> 33;
-        h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
-        h ^= h >> 33;
-        h = h.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
-        h ^ (h >> 33)
-    }
-}
-
 /// A mesh name as XML attribute or text: the five special characters as entities, control
 /// characters (which XML 1.0 cannot hold) as `_`.
 fn xml_escape(name: &str) -> String {
@@ -705,20 +666,6 @@ mod tests {
             vec![DVec3::ZERO, DVec3::X, DVec3::new(-0.0, 0.0, 0.0), DVec3::Y]
         );
         assert_eq!(shared.index, vec![vec![0, 1, 2], vec![3, 1, 0]]);
-    }
-
-    #[test]
-    fn positions_on_a_dyadic_grid_hash_apart() {
-        use std::hash::BuildHasher;
-        // Coordinates with all-zero low mantissa bits must still spread over the low bits,
-        // which pick a hash table's bucket.
-        let low_bits: std::collections::BTreeSet<u64> = (0..64)
-            .map(|i| {
-                let v = [f64::from(i) * 0.5, 0.25, -1.0].map(f64::to_bits);
-                BitsHash.hash_one(v) & 0xff
-            })
-            .collect();
-        assert!(low_bits.len() > 40, "{}", low_bits.len());
     }
 
     #[test]

@@ -7,7 +7,8 @@
 use std::collections::HashMap;
 use std::io::{self, Write};
 
-use super::{BitsHash, Format, NamedMesh, header_name};
+use super::{Format, NamedMesh, header_name};
+use crate::mesh::bits::BitsHash;
 
 /// Writes the meshes as one binary PLY file (see the module comment).
 pub fn write_ply(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
