@@ -450,9 +450,13 @@ fn improve(
         );
     }
     Leftovers {
-        held: report
-            .worst_held
-            .map(|(sin, at)| (report.held, sin.asin().to_degrees(), at)),
+        held: report.worst_held.map(|(sin, at)| {
+            (
+                report.below_after - report.poor.len(),
+                sin.asin().to_degrees(),
+                at,
+            )
+        }),
         poor: report.poor,
     }
 }

@@ -157,11 +157,11 @@ pub(super) struct Report {
     /// largest local step of its corners): no given corner excuses them, so the march's
     /// loop refines the local step there (`march_verified`).
     pub poor: Vec<(DVec3, f64)>,
-    /// How many triangles are left below the target with a corner the stage may not move
-    /// (a polygon vertex, a border point on the box, a corner at a non-manifold edge), and
-    /// the worst of them as (sine of its smallest angle, centroid): no refinement of the
-    /// local step moves those corners, so the user is told (`march_verified`'s warning).
-    pub held: usize,
+    /// The worst triangle left below the target with a corner the stage may not move (a
+    /// polygon vertex, a border point on the box, a corner at a non-manifold edge), as
+    /// (sine of its smallest angle, centroid); there are `below_after − poor.len()` of
+    /// them. No refinement of the local step moves those corners, so the user is told
+    /// (`march_verified`'s warning).
     pub worst_held: Option<(f64, DVec3)>,
 }
 
@@ -1686,11 +1686,8 @@ impl<'a> Stage<'a> {
             let centroid = self.corners(t).iter().sum::<DVec3>() / 3.0;
             if t.iter().all(|&v| self.free(v)) {
                 report.poor.push((centroid, self.h_of(&t)));
-            } else {
-                report.held += 1;
-                if report.worst_held.is_none_or(|(w, _)| q < w) {
-                    report.worst_held = Some((q, centroid));
-                }
+            } else if report.worst_held.is_none_or(|(w, _)| q < w) {
+                report.worst_held = Some((q, centroid));
             }
         }
         report
