@@ -47,6 +47,10 @@ pub(super) struct Triangulation {
     pub polygon_edges: Vec<[u32; 2]>,
     /// Per vertex: the local step h it was made with.
     pub h: Vec<f64>,
+    /// Per vertex: the local step the surface asked for there, before grading from the
+    /// point's parent. Taken (left empty) by the regrading check before the quality stage,
+    /// which adds and removes vertices without it.
+    pub wanted: Vec<f64>,
     /// Where the surface asked for a step below the sizing's floor (the first such point).
     pub floored: Option<DVec3>,
 }
@@ -79,6 +83,9 @@ impl Triangulation {
                 self.mesh.normals[kept] = self.mesh.normals[i];
                 self.border[kept] = self.border[i];
                 self.h[kept] = self.h[i];
+                if let Some(w) = self.wanted.get(i).copied() {
+                    self.wanted[kept] = w;
+                }
                 kept += 1;
             }
         }
@@ -86,6 +93,7 @@ impl Triangulation {
         self.mesh.normals.truncate(kept);
         self.border.truncate(kept);
         self.h.truncate(kept);
+        self.wanted.truncate(kept);
         for t in &mut self.mesh.triangles {
             *t = t.map(|v| map[v as usize]);
         }
@@ -1171,6 +1179,7 @@ impl Marcher<'_> {
             fixed: self.fixed_points as usize,
             polygon_edges: self.polygon_edges,
             h: self.h,
+            wanted: self.size.iter().map(|s| s.h).collect(),
             floored: self.floored,
         };
         if self.merged > 0 {

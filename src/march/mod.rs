@@ -264,9 +264,23 @@ pub fn march_verified(
     // A right mesh with triangles the quality stage left below its angle, while a finer
     // local step there is tried: returned if the finer march fails or is no better.
     let mut fallback: Option<(usize, Marched)> = None;
+    // A march that was not graded both ways is made again with caps that grade it
+    // (`regrading_caps`), up to `regrade_rounds` times: a march too coarse to see a neck
+    // learns of it only from the next. While such a march is tried, the sizing without its
+    // caps, to go back to if it fails (at the triangle limit, say): the march before is then
+    // verified as it would have been.
+    let mut regrades = 0;
+    let mut ungraded: Option<Sizing> = None;
+    let mut regrade_failed: Option<MarchError> = None;
     loop {
         let mut marched = match marcher::run(surface, input, settings, &sizing, progress) {
             Ok(m) => m,
+            Err(e) if ungraded.is_some() => {
+                sizing = ungraded.take().expect("checked");
+                regrade_failed = Some(e);
+                regrades = settings.sizing.regrade_rounds;
+                continue;
+            }
             Err(source) => {
                 if let Some((_, mut m)) = fallback {
                     // The finer march failed, maybe at the triangle limit: the mesh is not
@@ -288,6 +302,17 @@ pub fn march_verified(
             }
         };
         peak_triangles = peak_triangles.max(marched.mesh.triangles.len() as u64);
+        ungraded = None;
+        let wanted = std::mem::take(&mut marched.wanted);
+        if regrades < settings.sizing.regrade_rounds {
+            regrades += 1;
+            let caps = sizing.regrading_caps(&marched.mesh.vertices, &wanted, &marched.h);
+            if !caps.is_empty() {
+                ungraded = Some(sizing.clone());
+                sizing.add_caps(caps);
+                continue;
+            }
+        }
         let Leftovers { poor, held } = improve(surface, &mut marched, input, settings, tolerance);
         let verdict = verify::verify(surface, &marched, tolerance, step, &settings.surface_point);
         // A chord error above the tolerance may be a wrong mesh (a cap over a neck thinner
@@ -303,6 +328,11 @@ pub fn march_verified(
                     "a feature near {at} is smaller than the local step's floor {:e} (step/{}): meshed at the floor",
                     sizing.floor(),
                     (1.0 / settings.sizing.min_size).round()
+                ));
+            }
+            if let Some(e) = &regrade_failed {
+                warnings.push(format!(
+                    "the march with its local step graded towards fine places too failed ({e}): the mesh's step is graded away from them only, and its triangles are less even where it falls fast"
                 ));
             }
             if let Some(&(at, _)) = poor.first() {

@@ -232,6 +232,7 @@ mod tests {
             fixed: n,
             polygon_edges,
             h: vec![1.0; n],
+            wanted: vec![1.0; n],
             floored: None,
         };
         let mut plane = NativeSurface(|p: DVec3| ValueGrad {

@@ -41,7 +41,7 @@ use rayon::prelude::*;
 
 use super::components::Fork;
 use super::creases::merge;
-use super::sizing::Sizing;
+use super::sizing::{Sizing, SizingSettings};
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Marched, Start};
 use crate::mesh::Mesh;
 use crate::mesh::bits::BitsHash;
@@ -220,8 +220,13 @@ fn plan(
         tolerance: None,
         uniform: false,
     };
+    // Only the survey's area and sections count: no quality stage, no regrading.
     let coarse_settings = MarchSettings {
         quality_angle: 0.0,
+        sizing: SizingSettings {
+            regrade_share: 1.0,
+            ..settings.sizing
+        },
         ..*settings
     };
     // At `COARSE` steps, and where the surface has features too small for that (the survey

@@ -58,6 +58,14 @@ pub struct SizingSettings {
     /// The floor of h, relative to the step: smaller wishes are cut to it and reported.
     /// Default 1/256.
     pub min_size: f64,
+    /// Regrading (`Sizing::regrading_caps`): a point is made too coarse when its h is more
+    /// than 1/(1 − `regrade_margin`) times the field graded both ways. Default 0.2.
+    pub regrade_margin: f64,
+    /// A march with more than this share of its points made too coarse is made again with
+    /// the field graded both ways. Default 0.01; 1 turns regrading off.
+    pub regrade_share: f64,
+    /// The most marches made again to grade the field both ways. Default 3.
+    pub regrade_rounds: u32,
 }
 
 impl Default for SizingSettings {
@@ -74,6 +82,9 @@ impl Default for SizingSettings {
             inherit: 1.5,
             grading: 0.2,
             min_size: 1.0 / 256.0,
+            regrade_margin: 0.2,
+            regrade_share: 0.01,
+            regrade_rounds: 3,
         }
     }
 }
@@ -92,7 +103,7 @@ pub struct Sizing {
     tolerance: f64,
     uniform: bool,
     s: SizingSettings,
-    caps: CapGrid,
+    caps: CapTree,
 }
 
 /// What the field says at a point.
@@ -115,7 +126,7 @@ impl Sizing {
             tolerance,
             uniform: false,
             s: settings,
-            caps: CapGrid::new(step, settings.grading, Vec::new()),
+            caps: CapTree::new(settings.grading, Vec::new()),
         }
     }
 
@@ -136,7 +147,7 @@ impl Sizing {
             tolerance: f64::INFINITY,
             uniform: true,
             s: SizingSettings::default(),
-            caps: CapGrid::new(step, 0.5, Vec::new()),
+            caps: CapTree::new(0.5, Vec::new()),
         }
     }
 
@@ -165,7 +176,48 @@ impl Sizing {
             at: c.at,
             size: c.size.max(floor),
         }));
-        self.caps = CapGrid::new(self.step, self.s.grading, all);
+        self.caps = CapTree::new(self.s.grading, all);
+    }
+
+    /// The regrading pass (docs/marcher.md, *Grading both ways*). Grading from a point's
+    /// parent bounds how fast h grows away from a fine place but not how fast it falls
+    /// towards one: a front coming from a coarse region meets a plate's rim or a neck with h
+    /// falling by a factor of 2 or 3 within an edge, where no triangles are near-equilateral
+    /// (the flat ellipsoid's rim: mean radius ratio 0.92). Given a finished march's points,
+    /// the size the surface asked for at each (`wanted`) and the one each was made with
+    /// (`made`): caps at the points that make the field graded both ways,
+    /// h(p) ≤ wanted(q) + grading·|p − q| for every pair, if more than `regrade_share` of the
+    /// points were made with over 1/(1 − `regrade_margin`) times that; else none (the march
+    /// was graded enough and stands).
+    pub fn regrading_caps(&self, points: &[DVec3], wanted: &[f64], made: &[f64]) -> Vec<Cap> {
+        if self.uniform || self.s.regrade_share >= 1.0 {
+            return Vec::new();
+        }
+        let caps: Vec<Cap> = points
+            .iter()
+            .zip(wanted)
+            .filter(|&(_, &w)| w < self.step)
+            .map(|(&at, &size)| Cap { at, size })
+            .collect();
+        let field = CapTree::new(self.s.grading, caps);
+        let keep = 1.0 - self.s.regrade_margin;
+        let steep = points
+            .iter()
+            .zip(made)
+            .filter(|&(&p, &h)| field.bound(p, self.step) < keep * h)
+            .count();
+        if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
+            eprintln!(
+                "sizing: {steep} of {} point(s) made with a step over {:.2} times the field graded both ways",
+                points.len(),
+                1.0 / keep
+            );
+        }
+        if (steep as f64) > self.s.regrade_share * points.len() as f64 {
+            field.caps
+        } else {
+            Vec::new()
+        }
     }
 
     /// Number of caps set so far.
@@ -190,7 +242,7 @@ impl Sizing {
                 rho: f64::INFINITY,
             };
         }
-        let caps = self.caps.bound(sp.point);
+        let caps = self.caps.bound(sp.point, self.step);
         let (free, rho) = match parent.and_then(|(ps, pp, pn)| self.inherited(sp, ps, pp, pn)) {
             Some(got) => got,
             None => (
@@ -336,55 +388,113 @@ impl Sizing {
     }
 }
 
-/// Caps in a grid of cells as wide as a cap's reach (where its graded bound falls below the
-/// step), each cap in every cell its reach overlaps, so a query reads one cell.
+/// Caps in a kd-tree whose nodes know the box of their caps' centres and their smallest
+/// size, so that a query visits only the nodes whose bound `size + grading·distance to the
+/// box` can still beat the best found so far. The regrading pass sets a cap at every point of
+/// a graded zone (tens of thousands on a plate's rim), where a grid of cells as wide as a
+/// cap's reach would scan them all; no crate's kd-tree takes this additively weighted
+/// distance.
 #[derive(Clone, Debug)]
-struct CapGrid {
+struct CapTree {
+    /// Ordered so that each node's caps are `caps[start..end]`.
     caps: Vec<Cap>,
+    nodes: Vec<CapNode>,
     grading: f64,
-    inv_cell: f64,
-    cells: std::collections::HashMap<[i64; 3], Vec<u32>>,
 }
 
-impl CapGrid {
-    fn new(step: f64, grading: f64, caps: Vec<Cap>) -> Self {
-        let cell = step / grading.max(1e-3);
-        let inv_cell = 1.0 / cell;
-        let mut cells: std::collections::HashMap<[i64; 3], Vec<u32>> = Default::default();
-        for (i, c) in caps.iter().enumerate() {
-            let lo = ((c.at - cell) * inv_cell).floor().as_i64vec3();
-            let hi = ((c.at + cell) * inv_cell).floor().as_i64vec3();
-            for x in lo.x..=hi.x {
-                for y in lo.y..=hi.y {
-                    for z in lo.z..=hi.z {
-                        cells.entry([x, y, z]).or_default().push(i as u32);
-                    }
-                }
-            }
+#[derive(Clone, Copy, Debug)]
+struct CapNode {
+    lo: DVec3,
+    hi: DVec3,
+    smallest: f64,
+    start: u32,
+    end: u32,
+    /// The two children's indices; 0 for a leaf (the root is never a child).
+    children: [u32; 2],
+}
+
+/// The most caps in a leaf.
+const CAP_LEAF: usize = 8;
+
+impl CapTree {
+    fn new(grading: f64, mut caps: Vec<Cap>) -> Self {
+        let mut nodes = Vec::with_capacity(2 * caps.len() / CAP_LEAF + 1);
+        if !caps.is_empty() {
+            let n = caps.len();
+            Self::build(&mut caps, 0, n, &mut nodes);
         }
-        CapGrid {
+        CapTree {
             caps,
+            nodes,
             grading,
-            inv_cell,
-            cells,
         }
     }
 
-    fn bound(&self, p: DVec3) -> f64 {
-        if self.caps.is_empty() {
-            return f64::INFINITY;
+    /// Builds the node of `caps[start..end]` (split at the median of its widest axis) and
+    /// its subtree; returns its index.
+    fn build(caps: &mut [Cap], start: usize, end: usize, nodes: &mut Vec<CapNode>) -> u32 {
+        let part = &mut caps[start..end];
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        let mut smallest = f64::INFINITY;
+        for c in part.iter() {
+            lo = lo.min(c.at);
+            hi = hi.max(c.at);
+            smallest = smallest.min(c.size);
         }
-        let k = (p * self.inv_cell).floor().as_i64vec3();
-        self.cells
-            .get(&[k.x, k.y, k.z])
-            .map_or(f64::INFINITY, |list| {
-                list.iter()
-                    .map(|&i| {
-                        let c = self.caps[i as usize];
-                        c.size + self.grading * c.at.distance(p)
-                    })
-                    .fold(f64::INFINITY, f64::min)
-            })
+        let index = nodes.len();
+        nodes.push(CapNode {
+            lo,
+            hi,
+            smallest,
+            start: start as u32,
+            end: end as u32,
+            children: [0, 0],
+        });
+        if part.len() > CAP_LEAF {
+            let axis = (hi - lo).max_position();
+            let mid = part.len() / 2;
+            part.select_nth_unstable_by(mid, |a, b| a.at[axis].total_cmp(&b.at[axis]));
+            let left = Self::build(caps, start, start + mid, nodes);
+            let right = Self::build(caps, start + mid, end, nodes);
+            nodes[index].children = [left, right];
+        }
+        index as u32
+    }
+
+    /// The smallest graded bound `size + grading·|p − at|` of the caps, or `best` if none
+    /// is below it.
+    fn bound(&self, p: DVec3, mut best: f64) -> f64 {
+        if self.nodes.is_empty() {
+            return best;
+        }
+        let below = |n: &CapNode| n.smallest + self.grading * p.clamp(n.lo, n.hi).distance(p);
+        // Depth-first, nearer child first; the depth is at most log2(caps / CAP_LEAF) + 1.
+        let mut stack = [(0u32, 0.0f64); 64];
+        stack[0] = (0, below(&self.nodes[0]));
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let (i, at_least) = stack[len];
+            if at_least >= best {
+                continue;
+            }
+            let node = &self.nodes[i as usize];
+            if node.children[0] == 0 {
+                for c in &self.caps[node.start as usize..node.end as usize] {
+                    best = best.min(c.size + self.grading * c.at.distance(p));
+                }
+                continue;
+            }
+            let [a, b] = node.children.map(|k| (k, below(&self.nodes[k as usize])));
+            let (near, far) = if a.1 <= b.1 { (a, b) } else { (b, a) };
+            for next in [far, near] {
+                if next.1 < best {
+                    stack[len] = next;
+                    len += 1;
+                }
+            }
+        }
+        best
     }
 }
 
@@ -436,6 +546,75 @@ mod tests {
         assert!(size.h <= 0.4 * 0.1 * 1.1 && !size.floored, "{size:?}");
     }
 
+    /// The kd-tree's bound is the smallest `size + grading·distance` over all caps, as a scan
+    /// of every cap finds it, for caps of sizes over four orders of magnitude in clusters.
+    #[test]
+    fn cap_tree_bound_is_the_smallest_over_all_caps() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut unit = move || {
+            state ^= state >> 12;
+            state ^= state << 25;
+            state ^= state >> 27;
+            (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut point = |scale: f64| DVec3::new(unit(), unit(), unit()) * scale;
+        for n in [0, 1, 7, 9, 100, 3000] {
+            let caps: Vec<Cap> = (0..n)
+                .map(|i| Cap {
+                    at: point(if i % 3 == 0 { 0.05 } else { 2.0 }),
+                    size: 1e-4 * 10f64.powf(4.0 * (i % 17) as f64 / 16.0),
+                })
+                .collect();
+            let tree = CapTree::new(0.2, caps.clone());
+            for _ in 0..200 {
+                let p = point(2.5) - DVec3::splat(0.25);
+                let scan = caps
+                    .iter()
+                    .map(|c| c.size + 0.2 * c.at.distance(p))
+                    .fold(0.7f64, f64::min);
+                assert_eq!(tree.bound(p, 0.7), scan, "{n} caps, at {p}");
+            }
+        }
+    }
+
+    /// A march whose h fell from the step to a tenth of it within one edge is regraded: the
+    /// caps bound h near the fine points by their size plus the grading times the distance.
+    /// One whose h rose and fell at the grading's rate is not.
+    #[test]
+    fn regrading_caps_only_where_h_falls_faster_than_the_grading() {
+        let sizing = Sizing::new(1.0, 0.1, SizingSettings::default());
+        let g = sizing.settings().grading;
+        let points: Vec<DVec3> = (0..100)
+            .map(|i| DVec3::new(0.1 * i as f64, 0.0, 0.0))
+            .collect();
+        // h graded around the fine point at x = 5 at the grading's rate, capped at the step.
+        let graded: Vec<f64> = points
+            .iter()
+            .map(|p| (0.1 + g * (p.x - 5.0).abs()).min(1.0))
+            .collect();
+        assert!(sizing.regrading_caps(&points, &graded, &graded).is_empty());
+        // The same fine place, but the march kept the step until it got there.
+        let jump: Vec<f64> = points
+            .iter()
+            .map(|p| if (p.x - 5.0).abs() < 0.05 { 0.1 } else { 1.0 })
+            .collect();
+        let caps = sizing.regrading_caps(&points, &jump, &jump);
+        assert_eq!(caps.len(), 1);
+        assert_eq!((caps[0].at, caps[0].size), (DVec3::new(5.0, 0.0, 0.0), 0.1));
+        let mut regraded = sizing.clone();
+        regraded.add_caps(caps);
+        for p in &points {
+            let want = (0.1 + g * (p.x - 5.0).abs()).min(1.0);
+            assert!((regraded.caps.bound(*p, 1.0) - want).abs() < 1e-12, "{p}");
+        }
+        // Uniform sizing is never regraded.
+        assert!(
+            Sizing::uniform(1.0)
+                .regrading_caps(&points, &jump, &jump)
+                .is_empty()
+        );
+    }
+
     #[test]
     fn caps_are_graded_and_floored() {
         let mut sizing = Sizing::new(1.0, 0.1, SizingSettings::default());
@@ -444,11 +623,11 @@ mod tests {
             size: 1e-9,
         }]);
         let floor = sizing.floor();
-        assert!((sizing.caps.bound(DVec3::ZERO) - floor).abs() < 1e-15);
+        assert!((sizing.caps.bound(DVec3::ZERO, 1.0) - floor).abs() < 1e-15);
         let d = 0.5;
-        let b = sizing.caps.bound(DVec3::new(d, 0.0, 0.0));
+        let b = sizing.caps.bound(DVec3::new(d, 0.0, 0.0), 1.0);
         let g = sizing.settings().grading;
         assert!((b - (floor + g * d)).abs() < 1e-12, "{b}");
-        assert_eq!(sizing.caps.bound(DVec3::splat(10.0)), f64::INFINITY);
+        assert_eq!(sizing.caps.bound(DVec3::splat(10.0), 1.0), 1.0);
     }
 }
