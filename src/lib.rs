@@ -66,3 +66,7 @@ pub mod surface;
 pub mod survey;
 #[doc(hidden)]
 pub mod syntax;
+
+/// What the unit tests share (a seeded random sampler).
+#[cfg(test)]
+mod testing;

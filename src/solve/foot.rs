@@ -915,13 +915,7 @@ mod tests {
     #[test]
     fn pruned_seeds_are_the_full_lists_prefix() {
         let grid = PatchGrid::new(&mut Wave, &PatchFootTolerance::default()).expect("grid");
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut unit = move || {
-            state ^= state >> 12;
-            state ^= state << 25;
-            state ^= state >> 27;
-            (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut unit = crate::testing::uniform(0x2545_F491_4F6C_DD1Du64);
         let mut several = 0;
         for _ in 0..300 {
             let x = DVec3::new(10.0 * unit() - 1.0, 8.0 * unit() - 1.0, 6.0 * unit() - 3.0);

@@ -550,13 +550,7 @@ mod tests {
     /// of every cap finds it, for caps of sizes over four orders of magnitude in clusters.
     #[test]
     fn cap_tree_bound_is_the_smallest_over_all_caps() {
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut unit = move || {
-            state ^= state >> 12;
-            state ^= state << 25;
-            state ^= state >> 27;
-            (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut unit = crate::testing::uniform(0x9E37_79B9_7F4A_7C15u64);
         let mut point = |scale: f64| DVec3::new(unit(), unit(), unit()) * scale;
         for n in [0, 1, 7, 9, 100, 3000] {
             let caps: Vec<Cap> = (0..n)
