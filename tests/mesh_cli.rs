@@ -184,3 +184,50 @@ fn box_only_mesh_reports_components_and_warnings() {
         .unwrap_or("");
     assert!(header.contains("components"), "{stderr}");
 }
+
+/// `radius_ratio:` is the mean radius ratio the quality stage raises the mesh to: the
+/// default's aim (0.975) is reached, a higher aim costs more phases and gives a higher mean,
+/// a low one leaves the march's triangles as the angle's rounds left them (still ≥ 30°).
+#[test]
+fn radius_ratio_sets_the_quality_stages_aim() {
+    let dir = scratch("radius-ratio");
+    let shapes = [
+        ("x^2 + y^2 + z^2 - 4", "step: 0.3; start: (1, 1, 1);"),
+        (
+            "(x^2 + y^2 + z^2 + 4 - 0.25)^2 - 16 * (x^2 + y^2)",
+            "step: 0.12; start: (2.5, 0, 0);",
+        ),
+    ];
+    for (formula, options) in shapes {
+        let mean_and_angle = |aim: &str| {
+            let text = format!("surface s = {formula};\nmesh m = s {{ {options} {aim} }}\n");
+            let file = write(&dir, "m.surf", &text);
+            let (code, stdout, stderr) =
+                surfc(&["mesh", &file, "--json", "-q", "-o", "m.obj"], &dir);
+            assert_eq!(code, 0, "{text}: {stderr}");
+            let json: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+            let m = &json["meshes"][0];
+            assert_eq!(
+                m["euler_characteristic"],
+                if formula.contains("16") { 0 } else { 2 }
+            );
+            (
+                m["radius_ratio_mean"].as_f64().unwrap(),
+                m["min_angle_deg"].as_f64().unwrap(),
+            )
+        };
+        let (low, low_angle) = mean_and_angle("radius_ratio: 0.5;");
+        let (default, default_angle) = mean_and_angle("");
+        let (full, full_angle) = mean_and_angle("radius_ratio: 1;");
+        eprintln!("{formula}: radius_ratio 0.5 {low:.4}, default {default:.4}, 1 {full:.4}");
+        for angle in [low_angle, default_angle, full_angle] {
+            assert!(angle >= 30.0, "{formula}: {angle}°");
+        }
+        assert!(default >= 0.975, "{formula}: {default}");
+        assert!(
+            low < default && default < full,
+            "{formula}: {low} {default} {full}"
+        );
+        assert!(full >= 0.98, "{formula}: {full}");
+    }
+}

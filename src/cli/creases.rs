@@ -12,7 +12,6 @@ use glam::DVec3;
 use super::build::Builder;
 use crate::compile::CompileError;
 use crate::diag::{Diagnostic, messages};
-use crate::march::MarchSettings;
 use crate::mesh::Mesh;
 use crate::sema::program::MeshDef;
 use crate::surface::Surface;
@@ -60,7 +59,7 @@ pub(super) fn mesh(
         Some(fork),
         marching,
         bbox,
-        &MarchSettings::default(),
+        &super::mesh::march_settings(def),
         &SearchSettings::default(),
         &CreaseSettings::default(),
     )

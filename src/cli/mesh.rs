@@ -380,6 +380,15 @@ pub(crate) fn select<'a>(loaded: &'a Loaded, only: &[String]) -> Result<Vec<&'a 
 }
 
 /// Meshes the blocks in order; the first failure is reported as a diagnostic (exit 1).
+/// The marcher's settings for a mesh block: the defaults, with what the block asks for.
+pub(super) fn march_settings(def: &MeshDef) -> MarchSettings {
+    let defaults = MarchSettings::default();
+    MarchSettings {
+        quality_ratio: def.radius_ratio.unwrap_or(defaults.quality_ratio),
+        ..defaults
+    }
+}
+
 pub(crate) fn mesh_blocks(
     loaded: &Loaded,
     blocks: &[&MeshDef],
@@ -530,7 +539,7 @@ fn mesh_block(
     }
     let failed =
         |e: &MarchError| messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(e));
-    let settings = MarchSettings::default();
+    let settings = march_settings(def);
     let mut warnings = Vec::new();
     let start = match (def.front, def.start, def.bbox) {
         (Some(front), _, _) => Start::Front(

@@ -75,6 +75,7 @@ pub const CODES: &[(&str, &str)] = &[
     ("E0510", "a patch meshed directly"),
     ("E0521", "a `tolerance` that is not a positive number"),
     ("E0522", "a `uniform` that is not `true` or `false`"),
+    ("E0523", "a `radius_ratio` that is not a number in (0, 1]"),
     ("E0601", "a mesh that could not be completed"),
     (
         "E0602",
@@ -746,6 +747,18 @@ pub fn bad_uniform(span: Span) -> Diagnostic {
     Diagnostic::error("E0522", "`uniform` must be `true` or `false`")
         .primary(span, "not `true` or `false`")
         .help("`uniform: true;` meshes with the step everywhere, as the paper does")
+}
+
+pub fn bad_radius_ratio(span: Span, value: f64) -> Diagnostic {
+    Diagnostic::error(
+        "E0523",
+        format!("`radius_ratio` must be a number above 0 and at most 1, it is {value}"),
+    )
+    .primary(
+        span,
+        "the mean radius ratio the quality stage raises the mesh to",
+    )
+    .help("leave it out for the default, 0.975; 1 asks for every phase of the quality stage")
 }
 
 // ---- warnings -----------------------------------------------------------------------------

@@ -439,6 +439,7 @@ fn improve(
         rounds: settings.quality_rounds,
         insert_fraction: settings.quality_insert,
         tolerance,
+        ratio: settings.quality_ratio,
     };
     let (step, sp_tol) = (input.step, settings.surface_point);
     let mut project = |s: &mut dyn Surface, q: DVec3| {
@@ -462,7 +463,7 @@ fn improve(
     }
     if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
         eprintln!(
-            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es), {} removed in {} round(s) ({:.3} s) and {} for the radius ratios with {} ODT move(s) ({:.3} s of ODT), {:.3} s in all; stopped: {}",
+            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es), {} removed in {} round(s) ({:.3} s); mean radius ratio {:.4}, then {} ODT round(s) with {} move(s) ({:.3} s) and {} round(s) of the ratios' phase: {:.4}; {:.3} s in all; stopped: {}",
             report.below_before,
             limits.angle.to_degrees(),
             report.below_after,
@@ -472,9 +473,12 @@ fn improve(
             report.collapsed,
             report.rounds,
             report.rounds_seconds,
-            report.polish_rounds,
+            report.ratio_after_rounds,
+            report.odt_rounds,
             report.odt_moves,
             report.odt_seconds,
+            report.polish_rounds,
+            report.ratio_after,
             started.elapsed().as_secs_f64(),
             report.stop
         );

@@ -88,14 +88,13 @@ const ASCENT_STEP: f64 = 0.08;
 /// of a surfacepoint.
 const SMOOTH_BELOW: f64 = 0.97;
 
-/// The rounds proper smooth for the angle only the corners of triangles whose smallest
-/// angle is below this (degrees; at least the target) and two rings around those below the
-/// target; the ratios everywhere else are `polish`'s. Smoothing every fan below
-/// `SMOOTH_BELOW` in every round cost 4.5 s of the fine sphere's 10 s for at most 0.002 of
-/// mean radius ratio on the gallery; around the bad triangles alone the `g2_set` closure
-/// fell from 0.9750 to 0.9736, under the 0.974 it had before the local step; with the
-/// corners below 42° it keeps 0.9744 (docs/marcher.md).
-const POOR_ANGLE: f64 = 42.0;
+/// The rounds proper smooth for the angle only the vertices within this many rings of a
+/// triangle below the target; the ratios everywhere else are the ODT's and `polish`'s.
+/// Smoothing also the corners of every triangle below 42° (the second to seventh sessions)
+/// touched four in five of the fine sphere's vertices in each round for a mean radius ratio
+/// that the ODT's first round then sets anyway (0.9771 with them, 0.9768 without, at 2.4
+/// times the rounds' cost; docs/marcher.md, *The stage as cheap as its aim*).
+const BAD_RINGS: usize = 2;
 
 /// Rounds after `Limits::rounds`, while a triangle is still below the target, in which the
 /// border vertices of such triangles slide along their box face (`slide`). Sliding from the
@@ -107,6 +106,14 @@ const SLIDE_ROUNDS: u32 = 2;
 /// Rounds of the ODT smoothing (`Stage::odt`) between the two passes of `polish`: genus 3
 /// 0.9679, 0.9691, 0.9699 and 0.9699 of mean radius ratio after 1, 2, 4 and 6.
 const ODT_ROUNDS: u32 = 4;
+
+/// ODT rounds tried before the ratios' phase, stopping as soon as the mean radius ratio is
+/// at the aim (`Limits::ratio`): on the fine sphere the first round brings it from 0.956
+/// to 0.977, at a fifth of the cost of the ratios' phase. More rounds tried first left the
+/// meshes that then needed the ratios' phase lower than that phase alone would have: two
+/// flat superquadrics of the sweep ended at 0.9685 and 0.9693 after four, at 0.9722 and
+/// 0.9732 after one.
+const ODT_FIRST_ROUNDS: u32 = 1;
 
 /// An ODT move may lengthen an edge of its fan while the edge's midpoint stays within this
 /// fraction of the chord tolerance from the surface (at 0.25 genus 3 lost 0.001, at 1 it
@@ -130,6 +137,10 @@ pub(super) struct Limits {
     pub insert_fraction: f64,
     /// The largest chord error a flip may make (model units).
     pub tolerance: f64,
+    /// The mean radius ratio the stage raises the mesh to once the angle is mended: it
+    /// stops the ODT's rounds there, and only a mesh they leave below it gets the ratios'
+    /// phase (`polish`).
+    pub ratio: f64,
 }
 
 /// What the stage did, for `SURFC_TRACE`.
@@ -149,8 +160,13 @@ pub(super) struct Report {
     pub polish_rounds: u32,
     /// Seconds the rounds proper took (the rest of the stage is `polish`).
     pub rounds_seconds: f64,
-    /// Seconds the ODT smoothing took (between the two passes of `polish`).
+    /// Seconds the ODT smoothing took.
     pub odt_seconds: f64,
+    /// Rounds of the ODT smoothing.
+    pub odt_rounds: u32,
+    /// The mean radius ratio after the rounds proper, and at the end.
+    pub ratio_after_rounds: f64,
+    pub ratio_after: f64,
     /// Why the stage stopped.
     pub stop: &'static str,
     /// The triangles left below the target whose corners are all free, as (centroid, the
@@ -1525,7 +1541,6 @@ impl<'a> Stage<'a> {
         };
         let max_inserted = (limits.insert_fraction * self.tri.len() as f64) as usize + 64;
         let started = std::time::Instant::now();
-        let sin_poor = POOR_ANGLE.to_radians().sin().max(sin_bad);
         let mut dirty = vec![true; self.pos.len()];
         let mut star = Vec::new();
         // The rounds proper, then up to `SLIDE_ROUNDS` more while triangles stay below the
@@ -1540,10 +1555,9 @@ impl<'a> Stage<'a> {
             let (flips, _) = self.flip_all(queue, budget, surface, limits.tolerance);
             report.flips += flips;
             // 2. Smoothing, in index order, of free vertices whose fan changed and that are
-            // corners of a triangle below `POOR_ANGLE` or within two rings of a triangle
-            // below the target: these rounds are for the angle (the ratios are `polish`'s),
-            // and a bad triangle whose corners may not move is mended by moving its
-            // neighbours.
+            // within `BAD_RINGS` rings of a triangle below the target: these rounds are for
+            // the angle (the ratios are the ODT's and `polish`'s), and a bad triangle whose
+            // corners may not move is mended by moving its neighbours.
             let mut moved = vec![false; self.pos.len()];
             let mut moves = 0;
             // Border vertices slide only where a triangle of theirs is below the target:
@@ -1552,9 +1566,9 @@ impl<'a> Stage<'a> {
             // smoothing (only the fans of moved vertices change) for the scans after it.
             let mut sines = self.sines();
             let bad_corner = self.corners_below(&sines, sin_bad);
-            let mut smoothed = self.corners_below(&sines, sin_poor);
-            for (s, near) in smoothed.iter_mut().zip(self.grow(&self.grow(&bad_corner))) {
-                *s |= near;
+            let mut smoothed = bad_corner.clone();
+            for _ in 0..BAD_RINGS {
+                smoothed = self.grow(&smoothed);
             }
             for v in 0..self.pos.len() as u32 {
                 let may =
@@ -1657,24 +1671,49 @@ impl<'a> Stage<'a> {
                 break;
             }
         }
-        // The angle is where the rounds proper leave it; now the radius ratios, under a
-        // guard that cannot lower it (`polish`).
+        // The angle is where the rounds proper leave it; now the mean radius ratio, raised
+        // to `Limits::ratio` cheapest first: rounds of the ODT's smoothing (a target and a
+        // projection a vertex), until the mean reaches it; only where they do not, the
+        // ratios' phase (valence flips and an ascent a fan, about five times the cost of an
+        // ODT round) over every vertex, the ODT again, and the ratios' phase where it moved
+        // something — under a guard that cannot lower the angle (`polish`).
         report.rounds_seconds = started.elapsed().as_secs_f64();
-        // First the ratios' phase over every vertex; then the optimal Delaunay
-        // triangulation's smoothing, which moves the vertices as a whole towards the sizes
-        // the polished mesh has; then the ratios' phase again where it moved something.
-        self.polish(
-            vec![true; self.pos.len()],
-            limits,
+        report.ratio_after_rounds = self.mean_ratio();
+        let odt_started = std::time::Instant::now();
+        let (_, mean) = self.odt(
+            report.ratio_after_rounds,
+            limits.ratio,
+            limits.tolerance,
             surface,
             project,
             &mut report,
         );
-        let odt_started = std::time::Instant::now();
-        let moved = self.odt(limits.tolerance, surface, project, &mut report);
-        report.odt_seconds = odt_started.elapsed().as_secs_f64();
-        let dirty = self.grow(&moved);
-        self.polish(dirty, limits, surface, project, &mut report);
+        if mean < limits.ratio {
+            report.odt_seconds += odt_started.elapsed().as_secs_f64();
+            self.polish(
+                vec![true; self.pos.len()],
+                limits,
+                surface,
+                project,
+                &mut report,
+            );
+            let odt_started = std::time::Instant::now();
+            let (moved, _) = self.odt(
+                self.mean_ratio(),
+                f64::INFINITY,
+                limits.tolerance,
+                surface,
+                project,
+                &mut report,
+            );
+            report.odt_seconds += odt_started.elapsed().as_secs_f64();
+            let dirty = self.grow(&moved);
+            self.polish(dirty, limits, surface, project, &mut report);
+            report.ratio_after = self.mean_ratio();
+        } else {
+            report.odt_seconds += odt_started.elapsed().as_secs_f64();
+            report.ratio_after = mean;
+        }
         // The triangles left below the target, in one scan: how many, where those with only
         // free corners are, and the worst of the others.
         for &t in self.tri.iter() {
@@ -1783,9 +1822,12 @@ impl<'a> Stage<'a> {
     }
 
     /// Smooths every free vertex towards its optimal Delaunay triangulation (ODT) position
-    /// for `ODT_ROUNDS` rounds in index order (after the first, only the vertices around
-    /// the last round's moves, and only by more than `ODT_SETTLE` of the spacing), and
-    /// returns which vertices moved. The position is the mean of the circumcentres of the
+    /// in index order, for `ODT_ROUNDS` rounds where `aim` is infinite, else for up to
+    /// `ODT_FIRST_ROUNDS`: none if the mean radius ratio (`mean`, the mesh's as it comes) is
+    /// at `aim` already, and no more once a round brings it there. After the first round
+    /// only the vertices around the last round's moves are visited, and they move only by
+    /// more than `ODT_SETTLE` of the spacing. Returns which vertices moved and the mean at
+    /// the end (as it came where `aim` is infinite). The position is the mean of the circumcentres of the
     /// fan's triangles weighted by their area and a density ρ = s⁻⁴ of the polished mesh's
     /// own spacing s (Chen & Xu's ODT update; in the plane a mesh of size s has ρ ∝ s⁻⁴,
     /// Du & Wang), taken in the tangent plane and projected onto the surface.
@@ -1804,18 +1846,29 @@ impl<'a> Stage<'a> {
     /// verification checks the centroids too, which lie up to a third further out).
     fn odt(
         &mut self,
+        mean: f64,
+        aim: f64,
         tolerance: f64,
         surface: &mut dyn Surface,
         project: &mut Project<'_>,
         report: &mut Report,
-    ) -> Vec<bool> {
+    ) -> (Vec<bool>, f64) {
+        let mut mean = mean;
+        if mean >= aim {
+            return (vec![false; self.pos.len()], mean);
+        }
         let spacing = self.spacing();
         let keep = KEEP_ANGLE.sin().powi(2);
         let mut moved = vec![false; self.pos.len()];
         let mut star = Vec::new();
         // Each round visits the vertices around what the round before moved.
         let mut active = vec![true; self.pos.len()];
-        for _ in 0..ODT_ROUNDS {
+        let rounds = if aim.is_finite() {
+            ODT_FIRST_ROUNDS
+        } else {
+            ODT_ROUNDS
+        };
+        for _ in 0..rounds {
             let mut moved_now = vec![false; self.pos.len()];
             for v in 0..self.pos.len() as u32 {
                 if !active[v as usize]
@@ -1840,7 +1893,10 @@ impl<'a> Stage<'a> {
                 let Some((sp, sn)) = project(surface, target) else {
                     continue;
                 };
-                if fan.eval(sp).worst >= fan.eval(p).worst.min(keep)
+                // The guard new ≥ min(old, keep): most fans are above `keep` at the target,
+                // and then the fan where it was is not measured.
+                let worst = fan.eval(sp).worst;
+                if (worst >= keep || worst >= fan.eval(p).worst)
                     && fan.holds(sp, sn, f64::INFINITY)
                     && chords_within(&fan, p, sp, surface, ODT_CHORD * tolerance)
                 {
@@ -1850,9 +1906,32 @@ impl<'a> Stage<'a> {
                     report.odt_moves += 1;
                 }
             }
+            report.odt_rounds += 1;
             active = self.grow(&moved_now);
+            if aim.is_finite() {
+                mean = self.mean_ratio();
+                if mean >= aim {
+                    break;
+                }
+            }
         }
-        moved
+        (moved, mean)
+    }
+
+    /// The mean radius ratio of the triangles (1 for none).
+    fn mean_ratio(&self) -> f64 {
+        if self.tri.is_empty() {
+            return 1.0;
+        }
+        let sum: f64 = self
+            .tri
+            .iter()
+            .map(|&t| {
+                let [a, b, c] = self.corners(t);
+                radius_ratio(a, b, c)
+            })
+            .sum();
+        sum / self.tri.len() as f64
     }
 
     /// The ODT position of free vertex v (closed fan `star`), in the tangent plane at v;

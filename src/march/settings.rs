@@ -53,6 +53,11 @@ pub struct MarchSettings {
     /// Rounds of the quality stage (flips, smoothing, insertion; the last round does not
     /// insert). Default 6.
     pub quality_rounds: u32,
+    /// The mean radius ratio the quality stage raises a mesh to once its angles are mended:
+    /// rounds of the ODT's smoothing until the mean reaches it, and the costlier ratios'
+    /// phase only for a mesh they leave below it. Default 0.975 (DESIGN.md §6's bar of 0.97
+    /// with a margin). Above 1 every mesh gets every phase.
+    pub quality_ratio: f64,
     /// The quality stage inserts at most this fraction of the triangle count (plus 64) as
     /// new vertices. Default 0.05.
     pub quality_insert: f64,
@@ -113,6 +118,7 @@ impl Default for MarchSettings {
             box_snap: 0.3,
             quality_angle: 0.524,
             quality_rounds: 6,
+            quality_ratio: 0.975,
             quality_insert: 0.05,
             max_triangles: 10_000_000,
             polygon_edge_min: 0.25,

@@ -34,7 +34,7 @@ fn box_error(span: Span, l: DVec3, h: DVec3, step: Option<f64>) -> Option<Diagno
         .map(|k| messages::thin_box(span, axis(k), h[k] - l[k], min))
 }
 
-const MESH_OPTIONS: [&str; 8] = [
+const MESH_OPTIONS: [&str; 9] = [
     "step",
     "start",
     "box",
@@ -43,6 +43,7 @@ const MESH_OPTIONS: [&str; 8] = [
     "max_triangles",
     "tolerance",
     "uniform",
+    "radius_ratio",
 ];
 
 const INTERSECTION_SIG: &str = "intersection(S1, S2, near: (x, y, z))";
@@ -701,6 +702,20 @@ impl<'f> Checker<'f> {
                 None => ok = false,
             }
         }
+        let mut radius_ratio = None;
+        if let Some(o) = seen.get("radius_ratio") {
+            match self.single_value(o, "a number in (0, 1]") {
+                Some(e) => match self.number(e, "the radius ratio") {
+                    Some(v) if v > 0.0 && v <= 1.0 => radius_ratio = Some(v),
+                    Some(v) => {
+                        self.diags.push(messages::bad_radius_ratio(e.span, v));
+                        ok = false;
+                    }
+                    None => ok = false,
+                },
+                None => ok = false,
+            }
+        }
         let mut uniform = false;
         if let Some(o) = seen.get("uniform") {
             match self.single_value(o, "`true` or `false`") {
@@ -739,6 +754,7 @@ impl<'f> Checker<'f> {
             max_triangles,
             tolerance,
             uniform,
+            radius_ratio,
         })
     }
 }

@@ -135,6 +135,9 @@ pub struct MeshDef {
     pub tolerance: Option<f64>,
     /// `uniform: true`: the paper's fixed step, no local step.
     pub uniform: bool,
+    /// The mean radius ratio the quality stage raises the mesh to, in (0, 1]; `None` means
+    /// the mesher's default.
+    pub radius_ratio: Option<f64>,
 }
 
 /// Where a surface is expected: a named surface, a patch (only inside `dist`), or an
