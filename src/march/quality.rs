@@ -1,11 +1,12 @@
 //! The quality stage between the march and the verification (issue 13): restricted-Delaunay
 //! edge flips, angle-based smoothing of free vertices on the surface, insertion of
 //! off-centres where a triangle stays below the target angle, and the merge of a free corner
-//! into a neighbour where insertion cannot mend it (`Stage::remove_corner`); then, for the
-//! mean radius ratio (issue 10, M4), valence flips and smoothing up the gradient of each
-//! fan's radius ratios under a guard that cannot lower the smallest angle below min(target,
-//! what the rounds reached) (`Stage::polish`), with a smoothing towards the optimal Delaunay
-//! triangulation between its two passes (`Stage::odt`).
+//! into a neighbour where insertion cannot mend it (`Stage::remove_corner`); then the mean
+//! radius ratio (issue 10, M4) raised to `Limits::ratio`, cheapest first: a round of
+//! smoothing towards the optimal Delaunay triangulation (`Stage::odt`), and only where that
+//! falls short, valence flips and smoothing up the gradient of each fan's radius ratios
+//! (`Stage::polish`) around more ODT rounds — all under a guard that cannot lower the
+//! smallest angle below min(target, what the rounds reached).
 //!
 //! Input: the marcher's triangulation (vertices exactly on the surface, normals ∇f/|∇f|,
 //! which vertices are polygon or border points) and the surface. Output: the same
@@ -2271,14 +2272,35 @@ mod tests {
         }
 
         fn run_in(&mut self, fixed: usize, bbox: Option<(DVec3, DVec3)>) -> Report {
+            self.run_aiming(fixed, bbox, 1.0)
+        }
+
+        /// Runs the stage with the mean radius ratio `ratio` as its aim (1: every phase).
+        fn run_aiming(&mut self, fixed: usize, bbox: Option<(DVec3, DVec3)>, ratio: f64) -> Report {
             let limits = Limits {
                 angle: 0.524,
                 rounds: 6,
                 insert_fraction: 0.05,
                 tolerance: 0.1,
+                ratio,
             };
             self.stage(fixed, bbox)
                 .run(&limits, &mut Plane, &mut onto_plane)
+        }
+
+        fn mean_ratio(&self) -> f64 {
+            let sum: f64 = self
+                .tri
+                .iter()
+                .map(|t| {
+                    radius_ratio(
+                        self.pos[t[0] as usize],
+                        self.pos[t[1] as usize],
+                        self.pos[t[2] as usize],
+                    )
+                })
+                .sum();
+            sum / self.tri.len() as f64
         }
 
         /// The stage over the case, with the first `fixed` vertices as polygon vertices.
@@ -2583,6 +2605,86 @@ mod tests {
         assert!(c.pos.iter().all(|p| p.z == 0.0));
         assert!(c.all_up());
         assert_eq!(c.euler(), 1);
+    }
+
+    #[test]
+    fn the_ratio_phases_stop_at_their_aim() {
+        // A hexagonal grid in the plane with its inner vertices shaken by up to 0.15 of
+        // the spacing (every angle stays above 30°, so only the ratio phases act); the
+        // outline is fixed (listed first).
+        let n = 12;
+        let at =
+            |i: i32, j: i32| DVec3::new(i as f64 + 0.5 * j as f64, 0.75f64.sqrt() * j as f64, 0.0);
+        let mut rnd = crate::testing::uniform(7);
+        let (mut outline, mut inner) = (Vec::new(), Vec::new());
+        for j in 0..=n {
+            for i in 0..=n {
+                if i == 0 || j == 0 || i == n || j == n {
+                    outline.push((i, j));
+                } else {
+                    inner.push((i, j));
+                }
+            }
+        }
+        let index = |i: i32, j: i32| {
+            let k = outline
+                .iter()
+                .chain(&inner)
+                .position(|&q| q == (i, j))
+                .unwrap();
+            k as u32
+        };
+        let mut pos: Vec<DVec3> = outline.iter().map(|&(i, j)| at(i, j)).collect();
+        for &(i, j) in &inner {
+            let shake = DVec3::new(rnd() - 0.5, rnd() - 0.5, 0.0) * 0.3;
+            pos.push(at(i, j) + shake);
+        }
+        let mut tri = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                tri.push([index(i, j), index(i + 1, j), index(i, j + 1)]);
+                tri.push([index(i + 1, j), index(i + 1, j + 1), index(i, j + 1)]);
+            }
+        }
+        let fresh = || Case::new(pos.clone(), tri.clone());
+        let before = fresh().mean_ratio();
+        let worst = fresh().worst_deg();
+        assert!(worst > 30.5 && before < 0.97, "{worst}° {before}");
+        // At the aim already: nothing moves.
+        let mut at_aim = fresh();
+        let report = at_aim.run_aiming(outline.len(), None, before);
+        assert_eq!(
+            (report.odt_rounds, report.polish_rounds, report.moves),
+            (0, 0, 0)
+        );
+        assert_eq!(at_aim.pos, pos);
+        // An aim one ODT round reaches: that round, no ratio phase.
+        let mut one = fresh();
+        let report = one.run_aiming(outline.len(), None, before + 0.001);
+        let after_one = one.mean_ratio();
+        assert_eq!(
+            (report.odt_rounds, report.polish_rounds),
+            (1, 0),
+            "{report:?}"
+        );
+        assert!(after_one >= before + 0.001, "{before} → {after_one}");
+        assert_eq!(report.ratio_after, after_one);
+        // Out of reach: every phase, and a higher mean than the ODT round alone gave.
+        let mut all = fresh();
+        let report = all.run_aiming(outline.len(), None, 1.0);
+        assert!(
+            report.odt_rounds > 1 && report.polish_rounds > 0,
+            "{report:?}"
+        );
+        assert!(
+            all.mean_ratio() > after_one,
+            "{} vs {after_one}",
+            all.mean_ratio()
+        );
+        for case in [&one, &all] {
+            assert!(case.worst_deg() >= 30.0 && case.all_up());
+            assert_eq!(case.euler(), fresh().euler());
+        }
     }
 
     #[test]
