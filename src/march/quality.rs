@@ -594,8 +594,14 @@ impl<'a> Stage<'a> {
             // α + β > π + margin exactly where it is below −sin(margin).
             let [pa, pb, pc, pd] = [a, b, c, d].map(|v| self.p(v));
             let (u1, v1, u2, v2) = (pa - pc, pb - pc, pa - pd, pb - pd);
+            // Neither angle obtuse: both terms of sin(α + β) below are ≥ 0, so the test
+            // fails; most edges of a marched mesh end here, before the lengths and crosses.
+            let (cos1, cos2) = (u1.dot(v1), u2.dot(v2));
+            if cos1 >= 0.0 && cos2 >= 0.0 {
+                return false;
+            }
             let lens = u1.length() * v1.length() * u2.length() * v2.length();
-            let sin_sum = u1.cross(v1).length() * u2.dot(v2) + u1.dot(v1) * u2.cross(v2).length();
+            let sin_sum = u1.cross(v1).length() * cos2 + cos1 * u2.cross(v2).length();
             if !(lens > 0.0 && sin_sum < -DELAUNAY_MARGIN.sin() * lens) {
                 return false;
             }
