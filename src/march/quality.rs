@@ -145,9 +145,9 @@ pub(super) struct Limits {
     pub insert_fraction: f64,
     /// The largest chord error a flip may make (model units).
     pub tolerance: f64,
-    /// The mean radius ratio the stage raises the mesh to once the angle is mended: it
-    /// stops the ODT's rounds there, and only a mesh they leave below it gets the ratios'
-    /// phase (`polish`).
+    /// The mean radius ratio the stage raises the mesh to once the angle is mended: a mesh
+    /// at it is left as it is, one within `ODT_REACH` gets an ODT round, and only a mesh
+    /// still below it gets the ratios' phase (`polish`).
     pub ratio: f64,
 }
 
