@@ -119,8 +119,8 @@ const ODT_FIRST_ROUNDS: u32 = 1;
 /// The ODT round is tried first only where the mean radius ratio is within this of the aim:
 /// one round gained 0.011–0.027 on the gallery's meshes and the fine sphere, and none more
 /// than this short of 0.975 reached it (0.937–0.948 ended at 0.964–0.971). Where it cannot,
-/// the round tried first costs a round and leaves the ratio phase less to gain: the
-/// patches' pieces and the sweep's flat superquadrics ended 0.0015–0.002 lower with it.
+/// the round tried first costs a round and leaves the ratio phase less to gain: the sweep's
+/// flat superquadrics ended 0.002 lower with it, the patches' pieces 0.0003–0.0005.
 const ODT_REACH: f64 = 0.025;
 
 /// An ODT move may lengthen an edge of its fan while the edge's midpoint stays within this
@@ -1846,10 +1846,10 @@ impl<'a> Stage<'a> {
     /// at `aim` already, and no more once a round brings it there. After the first round
     /// only the vertices around the last round's moves are visited, and they move only by
     /// more than `ODT_SETTLE` of the spacing. Returns which vertices moved and the mean at
-    /// the end (as it came where `aim` is infinite). The position is the mean of the circumcentres of the
-    /// fan's triangles weighted by their area and a density ρ = s⁻⁴ of the polished mesh's
-    /// own spacing s (Chen & Xu's ODT update; in the plane a mesh of size s has ρ ∝ s⁻⁴,
-    /// Du & Wang), taken in the tangent plane and projected onto the surface.
+    /// the end (as it came where `aim` is infinite). The position is the mean of the
+    /// circumcentres of the fan's triangles weighted by their area and a density ρ = s⁻⁴ of
+    /// the mesh's own spacing s (Chen & Xu's ODT update; in the plane a mesh of size s has
+    /// ρ ∝ s⁻⁴, Du & Wang), taken in the tangent plane and projected onto the surface.
     ///
     /// Where `polish` moves a vertex only if its own fan's ratios rise, these moves may
     /// lower one fan for the next: the energy they descend is the whole mesh's, which lets
