@@ -1707,8 +1707,9 @@ impl<'a> Stage<'a> {
         } else {
             report.ratio_after_rounds
         };
+        report.odt_seconds += odt_started.elapsed().as_secs_f64();
+        report.ratio_after = mean;
         if mean < limits.ratio {
-            report.odt_seconds += odt_started.elapsed().as_secs_f64();
             self.polish(
                 vec![true; self.pos.len()],
                 limits,
@@ -1717,8 +1718,9 @@ impl<'a> Stage<'a> {
                 &mut report,
             );
             let odt_started = std::time::Instant::now();
+            // With no aim the mean is not looked at: the last one measured is passed.
             let (moved, _) = self.odt(
-                self.mean_ratio(),
+                mean,
                 f64::INFINITY,
                 limits.tolerance,
                 surface,
@@ -1729,9 +1731,6 @@ impl<'a> Stage<'a> {
             let dirty = self.grow(&moved);
             self.polish(dirty, limits, surface, project, &mut report);
             report.ratio_after = self.mean_ratio();
-        } else {
-            report.odt_seconds += odt_started.elapsed().as_secs_f64();
-            report.ratio_after = mean;
         }
         // The triangles left below the target, in one scan: how many, where those with only
         // free corners are, and the worst of the others.
