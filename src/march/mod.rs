@@ -463,7 +463,7 @@ fn improve(
     }
     if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
         eprintln!(
-            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es), {} removed in {} round(s) ({:.3} s); mean radius ratio {:.4}, then {} ODT round(s) with {} move(s) ({:.3} s) and {} round(s) of the ratios' phase: {:.4}; {:.3} s in all; stopped: {}",
+            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es), {} removed in {} round(s) ({:.3} s); mean radius ratio {:.4}, then {} centroid and {} ODT round(s) of smoothing with {} move(s) ({:.3} s) and {} round(s) of the ratios' phase: {:.4}; {:.3} s in all; stopped: {}",
             report.below_before,
             limits.angle.to_degrees(),
             report.below_after,
@@ -474,9 +474,10 @@ fn improve(
             report.rounds,
             report.rounds_seconds,
             report.ratio_after_rounds,
+            report.centroid_rounds,
             report.odt_rounds,
-            report.odt_moves,
-            report.odt_seconds,
+            report.smoothing_moves,
+            report.smoothing_seconds,
             report.polish_rounds,
             report.ratio_after,
             started.elapsed().as_secs_f64(),

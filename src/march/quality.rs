@@ -3,10 +3,10 @@
 //! off-centres where a triangle stays below the target angle, and the merge of a free corner
 //! into a neighbour where insertion cannot mend it (`Stage::remove_corner`); then the mean
 //! radius ratio (issue 10, M4) raised to `Limits::ratio`, cheapest first: a round of
-//! smoothing towards the optimal Delaunay triangulation (`Stage::odt`), and only where that
+//! smoothing towards the rings' centroids (`Stage::smoothing_rounds`), and only where that
 //! falls short, valence flips and smoothing up the gradient of each fan's radius ratios
-//! (`Stage::polish`) around more ODT rounds — all under a guard that cannot lower the
-//! smallest angle below min(target, what the rounds reached).
+//! (`Stage::polish`) around rounds towards the optimal Delaunay triangulation — all under a
+//! guard that cannot lower the smallest angle below min(target, what the rounds reached).
 //!
 //! Input: the marcher's triangulation (vertices exactly on the surface, normals ∇f/|∇f|,
 //! which vertices are polygon or border points) and the surface. Output: the same
@@ -90,8 +90,8 @@ const ASCENT_STEP: f64 = 0.08;
 const SMOOTH_BELOW: f64 = 0.97;
 
 /// The rounds proper smooth for the angle only the vertices within this many rings of a
-/// triangle below the target; the ratios everywhere else are the ODT's and `polish`'s.
-/// Smoothing also the corners of every triangle below 42° (the second to seventh sessions)
+/// triangle below the target; the ratios everywhere else are the smoothing rounds' and
+/// `polish`'s. Smoothing also the corners of every triangle below 42° (the second to seventh sessions)
 /// touched four in five of the fine sphere's vertices in each round for a mean radius ratio
 /// that the ODT's first round then sets anyway (0.9771 with them, 0.9768 without, at 2.4
 /// times the rounds' cost; docs/marcher.md, *The stage as cheap as its aim*).
@@ -104,23 +104,19 @@ const BAD_RINGS: usize = 2;
 /// it only acts where the rounds proper left a bad triangle.
 const SLIDE_ROUNDS: u32 = 2;
 
-/// Rounds of the ODT smoothing (`Stage::odt`) between the two passes of `polish`: genus 3
+/// Rounds of the ODT smoothing (`Stage::smoothing_rounds`) between the two passes of
+/// `polish`: genus 3
 /// 0.9679, 0.9691, 0.9699 and 0.9699 of mean radius ratio after 1, 2, 4 and 6.
 const ODT_ROUNDS: u32 = 4;
 
-/// ODT rounds tried before the ratios' phase, stopping as soon as the mean radius ratio is
-/// at the aim (`Limits::ratio`): on the fine sphere the first round brings it from 0.956
-/// to 0.977, at a fifth of the cost of the ratios' phase. More rounds tried first left the
-/// meshes that then needed the ratios' phase lower than that phase alone would have: two
-/// flat superquadrics of the sweep ended at 0.9685 and 0.9693 after four, at 0.9722 and
-/// 0.9732 after one.
-const ODT_FIRST_ROUNDS: u32 = 1;
-
-/// The ODT round is tried first only where the mean radius ratio is within this of the aim:
-/// one round gained 0.011–0.027 on the gallery's meshes and the fine sphere, and none more
-/// than this short of 0.975 reached it (0.937–0.948 ended at 0.964–0.971). Where it cannot,
-/// the round tried first costs a round and leaves the ratio phase less to gain: the sweep's
-/// flat superquadrics ended 0.002 lower with it, the patches' pieces 0.0003–0.0005.
+/// The centroid round is tried first only where the mean radius ratio is within this of
+/// the aim. With an ODT round in its place (the eighth session), one round gained
+/// 0.011–0.027 on the gallery's meshes and the fine sphere, and none more than this short of
+/// 0.975 reached it (0.937–0.948 ended at 0.964–0.971); where it cannot, the round tried
+/// first costs a round and leaves the ratio phase less to gain (the sweep's flat
+/// superquadrics ended 0.002 lower with it). The centroid's round gains more (0.024 on the
+/// fine sphere) but did not bring the gallery's meshes from 0.944–0.948 to the aim either:
+/// at 0.035 or 0.05 they all took the full path after it, and ended up to 0.0007 lower.
 const ODT_REACH: f64 = 0.025;
 
 /// An ODT move may lengthen an edge of its fan while the edge's midpoint stays within this
@@ -128,11 +124,25 @@ const ODT_REACH: f64 = 0.025;
 /// gained 0.0001).
 const ODT_CHORD: f64 = 0.5;
 
-/// An ODT target nearer than this fraction of the vertex's spacing is not taken (nor
-/// projected): on the fine sphere three quarters of the moves were below it; skipping them
+/// A smoothing target nearer than this fraction of the vertex's local step is not taken
+/// (nor projected): on the fine sphere three quarters of the moves were below it; skipping them
 /// (and visiting only the vertices around the last round's moves) cost the gallery's means
 /// at most 0.0004.
 const ODT_SETTLE: f64 = 0.01;
+
+/// Where a smoothing round (`Stage::smoothing_rounds`) moves a free vertex.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Placement {
+    /// The centroid of its ring in the tangent plane: the round tried first, towards the
+    /// aim. On the fine sphere it brings the mean radius ratio from 0.956 to 0.980, where
+    /// an ODT round brought it to 0.977, for a fifth less time (no circumcentres, and the
+    /// ring is gathered once for the target and the guard); it gained more than the ODT's
+    /// round on all but one of the gallery's meshes (docs/marcher.md).
+    Centroid,
+    /// The ODT position (`Stage::odt_target`): the rounds between `polish`'s two passes,
+    /// where the grading zones' triangles even out.
+    Odt,
+}
 
 /// What the stage aims at and how much it may do.
 #[derive(Clone, Copy, Debug)]
@@ -146,7 +156,7 @@ pub(super) struct Limits {
     /// The largest chord error a flip may make (model units).
     pub tolerance: f64,
     /// The mean radius ratio the stage raises the mesh to once the angle is mended: a mesh
-    /// at it is left as it is, one within `ODT_REACH` gets an ODT round, and only a mesh
+    /// at it is left as it is, one within `ODT_REACH` gets a centroid round, and only a mesh
     /// still below it gets the ratios' phase (`polish`).
     pub ratio: f64,
 }
@@ -158,8 +168,8 @@ pub(super) struct Report {
     pub below_after: usize,
     pub flips: usize,
     pub moves: usize,
-    /// Moves of the ODT smoothing (`Stage::odt`).
-    pub odt_moves: usize,
+    /// Moves of the smoothing rounds (`Stage::smoothing_rounds`).
+    pub smoothing_moves: usize,
     pub inserted: usize,
     /// Free corners removed (`Stage::remove_corner`).
     pub collapsed: usize,
@@ -168,9 +178,11 @@ pub(super) struct Report {
     pub polish_rounds: u32,
     /// Seconds the rounds proper took (the rest of the stage is `polish`).
     pub rounds_seconds: f64,
-    /// Seconds the ODT smoothing took.
-    pub odt_seconds: f64,
-    /// Rounds of the ODT smoothing.
+    /// Seconds the smoothing rounds took.
+    pub smoothing_seconds: f64,
+    /// Smoothing rounds towards the rings' centroids (`Placement::Centroid`), and towards
+    /// the ODT positions (`Placement::Odt`).
+    pub centroid_rounds: u32,
     pub odt_rounds: u32,
     /// The mean radius ratio after the rounds proper, and at the end.
     pub ratio_after_rounds: f64,
@@ -213,6 +225,30 @@ pub(super) fn min_sin(a: DVec3, b: DVec3, c: DVec3) -> f64 {
 pub(super) fn radius_ratio(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let area2 = (b - a).cross(c - a).length_squared(); // (2A)²
     ratio_of_sides(a.distance(b), b.distance(c), c.distance(a), area2)
+}
+
+/// (`min_sin`, `radius_ratio`) of a triangle, from one set of side lengths.
+fn shape([a, b, c]: [DVec3; 3]) -> (f64, f64) {
+    let (ab, bc, ca) = (
+        a.distance_squared(b),
+        b.distance_squared(c),
+        c.distance_squared(a),
+    );
+    let area2 = (b - a).cross(c - a).length_squared();
+    let sin = sin2_of(area2, ab, bc, ca).sqrt();
+    (sin, ratio_of_sides(ab.sqrt(), bc.sqrt(), ca.sqrt(), area2))
+}
+
+/// sin² of the smallest angle of a triangle from |cross|² of two of its sides (`area2`) and
+/// its squared sides: |c|²·m²/(x²y²z²), m the shortest side, with no square root. 0 if
+/// degenerate.
+fn sin2_of(area2: f64, x2: f64, y2: f64, z2: f64) -> f64 {
+    let product = x2 * y2 * z2;
+    if product > 0.0 {
+        area2 * x2.min(y2).min(z2) / product
+    } else {
+        0.0
+    }
 }
 
 /// 2·r_in/r_circ of a triangle with sides x, y, z and (2A)² = `area2`; 0 if degenerate.
@@ -312,17 +348,24 @@ impl<'a> Stage<'a> {
             }
             for i in outs.clone() {
                 let (e, b) = (list[i], list_dst[i] as usize);
+                // More than one half-edge a → b: a non-manifold edge (found at its a).
                 let same = list_dst[outs.clone()]
                     .iter()
                     .filter(|&&d| d as usize == b)
                     .count();
-                let mut back = range(b).filter(|&j| list_dst[j] as usize == a);
-                let (first, more) = (back.next().map(|j| list[j]), back.next().is_some());
-                if let (1, false, Some(f)) = (same, more, first) {
-                    twin[e as usize] = f;
-                } else if same > 1 || more {
+                if same > 1 {
                     frozen[a] = true;
                     frozen[b] = true;
+                }
+                // Each pair is linked once, from its lower end; more than one half-edge
+                // b → a is the other end's `same`.
+                if a > b {
+                    continue;
+                }
+                let mut back = range(b).filter(|&j| list_dst[j] as usize == a);
+                if let (1, Some(f), None) = (same, back.next(), back.next()) {
+                    twin[e as usize] = list[f];
+                    twin[list[f] as usize] = e;
                 }
             }
         }
@@ -1530,12 +1573,14 @@ impl<'a> Stage<'a> {
 
     /// The interior edges (one half-edge each, the lower) with an end marked in `dirty`.
     fn dirty_edges(&self, dirty: &[bool]) -> Vec<u32> {
-        (0..3 * self.tri.len() as u32)
-            .filter(|&e| {
-                let f = self.twin[e as usize];
-                f != NONE && e < f && (dirty[self.org(e) as usize] || dirty[self.dst(e) as usize])
-            })
-            .collect()
+        // Room for every inner edge up front: collecting into a growing vector copied the
+        // first round's (every edge's) queue several times over.
+        let mut queue = Vec::with_capacity(3 * self.tri.len() / 2 + 1);
+        queue.extend((0..3 * self.tri.len() as u32).filter(|&e| {
+            let f = self.twin[e as usize];
+            f != NONE && e < f && (dirty[self.org(e) as usize] || dirty[self.dst(e) as usize])
+        }));
+        queue
     }
 
     /// Runs the stage. `project` puts a point near the surface onto it (point and unit
@@ -1555,14 +1600,92 @@ impl<'a> Stage<'a> {
         };
         let max_inserted = (limits.insert_fraction * self.tri.len() as f64) as usize + 64;
         let started = std::time::Instant::now();
-        let mut dirty = vec![true; self.pos.len()];
+        let all = vec![true; self.pos.len()];
+        self.angle_rounds(all, limits, max_inserted, &mut report, surface, project);
+        // The angle is where the rounds proper leave it; now the mean radius ratio, raised
+        // to `Limits::ratio` cheapest first: a round of smoothing towards the rings'
+        // centroids (a projection a vertex) where it can reach it (`ODT_REACH`); only where
+        // it does not, the ratios' phase (valence flips and an ascent a fan, about five times
+        // the cost of a smoothing round) over every vertex, ODT rounds, and the ratios' phase
+        // where they moved something — under a guard that cannot lower the angle (`polish`).
+        report.rounds_seconds = started.elapsed().as_secs_f64();
+        report.ratio_after_rounds = self.mean_ratio();
+        let (aim, reach) = (limits.ratio, limits.ratio - ODT_REACH);
+        if (reach..aim).contains(&report.ratio_after_rounds) {
+            let smoothing_started = std::time::Instant::now();
+            let round = Placement::Centroid;
+            self.smoothing_rounds(round, 1, limits.tolerance, surface, project, &mut report);
+            report.smoothing_seconds += smoothing_started.elapsed().as_secs_f64();
+        }
+        // The mean and the triangles below the target, in one scan.
+        let (mut mean, mut below) = self.survey(sin_bad);
+        // Where triangles stay below the target, the full path runs too, as if the aim
+        // were not met: the angle's rounds could not mend them, and the moves of its
+        // valence flips and ODT rounds around them may. (Two of the gallery's meshes keep
+        // one such triangle beside a box face after the centroid's round, at 29.2° and
+        // 29.8°; the full path mends both, as it did when an ODT round left their means
+        // below the aim.)
+        if mean < aim || !below.is_empty() {
+            self.polish(
+                vec![true; self.pos.len()],
+                limits,
+                surface,
+                project,
+                &mut report,
+            );
+            let smoothing_started = std::time::Instant::now();
+            let moved = self.smoothing_rounds(
+                Placement::Odt,
+                ODT_ROUNDS,
+                limits.tolerance,
+                surface,
+                project,
+                &mut report,
+            );
+            report.smoothing_seconds += smoothing_started.elapsed().as_secs_f64();
+            let dirty = self.grow(&moved);
+            self.polish(dirty, limits, surface, project, &mut report);
+            (mean, below) = self.survey(sin_bad);
+        }
+        report.ratio_after = mean;
+        // The triangles left below the target: how many, where those with only free
+        // corners are, and the worst of the others.
+        report.below_after = below.len();
+        for t in below {
+            let t = self.tri[t as usize];
+            let centroid = self.corners(t).iter().sum::<DVec3>() / 3.0;
+            if t.iter().all(|&v| self.free(v)) {
+                report.poor.push((centroid, self.h_of(&t)));
+            } else {
+                let q = self.q(t);
+                if report.worst_held.is_none_or(|(w, _)| q < w) {
+                    report.worst_held = Some((q, centroid));
+                }
+            }
+        }
+        report
+    }
+
+    /// The rounds proper, for the angle: flips, smoothing near triangles below the target,
+    /// insertion and removal, starting from the vertices marked `dirty`, while at most
+    /// `max_inserted` vertices are inserted in all (`report.inserted` counts them).
+    fn angle_rounds(
+        &mut self,
+        mut dirty: Vec<bool>,
+        limits: &Limits,
+        max_inserted: usize,
+        report: &mut Report,
+        surface: &mut dyn Surface,
+        project: &mut Project<'_>,
+    ) {
+        let sin_bad = limits.angle.sin();
         let mut star = Vec::new();
         // The rounds proper, then up to `SLIDE_ROUNDS` more while triangles stay below the
         // target, in which border vertices slide too.
         let total = limits.rounds + SLIDE_ROUNDS;
         for round in 0..total {
             let sliding = round >= limits.rounds;
-            report.rounds = round + 1;
+            report.rounds += 1;
             // 1. Flips over every edge (the first round) or the edges around what changed.
             let queue = self.dirty_edges(&dirty);
             let budget = 2 * self.tri.len() + 64;
@@ -1570,7 +1693,7 @@ impl<'a> Stage<'a> {
             report.flips += flips;
             // 2. Smoothing, in index order, of free vertices whose fan changed and that are
             // within `BAD_RINGS` rings of a triangle below the target: these rounds are for
-            // the angle (the ratios are the ODT's and `polish`'s), and a bad triangle whose
+            // the angle (the ratios are the smoothing rounds' and `polish`'s), and a bad triangle whose
             // corners may not move is mended by moving its neighbours.
             let mut moved = vec![false; self.pos.len()];
             let mut moves = 0;
@@ -1685,69 +1808,6 @@ impl<'a> Stage<'a> {
                 break;
             }
         }
-        // The angle is where the rounds proper leave it; now the mean radius ratio, raised
-        // to `Limits::ratio` cheapest first: a round of the ODT's smoothing (a target and a
-        // projection a vertex) where it can reach it (`ODT_REACH`); only where it does not,
-        // the ratios' phase (valence flips and an ascent a fan, about five times the cost of
-        // an ODT round) over every vertex, the ODT again, and the ratios' phase where it
-        // moved something — under a guard that cannot lower the angle (`polish`).
-        report.rounds_seconds = started.elapsed().as_secs_f64();
-        report.ratio_after_rounds = self.mean_ratio();
-        let odt_started = std::time::Instant::now();
-        let mean = if report.ratio_after_rounds >= limits.ratio - ODT_REACH {
-            self.odt(
-                report.ratio_after_rounds,
-                limits.ratio,
-                limits.tolerance,
-                surface,
-                project,
-                &mut report,
-            )
-            .1
-        } else {
-            report.ratio_after_rounds
-        };
-        report.odt_seconds += odt_started.elapsed().as_secs_f64();
-        report.ratio_after = mean;
-        if mean < limits.ratio {
-            self.polish(
-                vec![true; self.pos.len()],
-                limits,
-                surface,
-                project,
-                &mut report,
-            );
-            let odt_started = std::time::Instant::now();
-            // With no aim the mean is not looked at: the last one measured is passed.
-            let (moved, _) = self.odt(
-                mean,
-                f64::INFINITY,
-                limits.tolerance,
-                surface,
-                project,
-                &mut report,
-            );
-            report.odt_seconds += odt_started.elapsed().as_secs_f64();
-            let dirty = self.grow(&moved);
-            self.polish(dirty, limits, surface, project, &mut report);
-            report.ratio_after = self.mean_ratio();
-        }
-        // The triangles left below the target, in one scan: how many, where those with only
-        // free corners are, and the worst of the others.
-        for &t in self.tri.iter() {
-            let q = self.q(t);
-            if q >= sin_bad {
-                continue;
-            }
-            report.below_after += 1;
-            let centroid = self.corners(t).iter().sum::<DVec3>() / 3.0;
-            if t.iter().all(|&v| self.free(v)) {
-                report.poor.push((centroid, self.h_of(&t)));
-            } else if report.worst_held.is_none_or(|(w, _)| q < w) {
-                report.worst_held = Some((q, centroid));
-            }
-        }
-        report
     }
 
     /// Raises the mean radius ratio once the rounds proper are done (issue 10, M4):
@@ -1839,53 +1899,38 @@ impl<'a> Stage<'a> {
         }
     }
 
-    /// Smooths every free vertex towards its optimal Delaunay triangulation (ODT) position
-    /// in index order, for `ODT_ROUNDS` rounds where `aim` is infinite, else for up to
-    /// `ODT_FIRST_ROUNDS`: none if the mean radius ratio (`mean`, the mesh's as it comes) is
-    /// at `aim` already, and no more once a round brings it there. After the first round
-    /// only the vertices around the last round's moves are visited, and they move only by
-    /// more than `ODT_SETTLE` of the spacing. Returns which vertices moved and the mean at
-    /// the end (as it came where `aim` is infinite). The position is the mean of the
-    /// circumcentres of the fan's triangles weighted by their area and a density ρ = s⁻⁴ of
-    /// the mesh's own spacing s (Chen & Xu's ODT update; in the plane a mesh of size s has
-    /// ρ ∝ s⁻⁴, Du & Wang), taken in the tangent plane and projected onto the surface.
-    ///
-    /// Where `polish` moves a vertex only if its own fan's ratios rise, these moves may
-    /// lower one fan for the next: the energy they descend is the whole mesh's, which lets
-    /// the grading zones' triangles even out (genus 3: 0.962 → 0.970 of mean radius ratio
-    /// with `polish` again after it; docs/marcher.md). The spacing is the mesh's, not the
-    /// local step: the triangles' sizes are what the march and the rounds made of it
-    /// (with the local step, genus 3 reached 0.966).
+    /// `rounds` smoothing rounds over every free vertex in index order, moving each to the
+    /// place `placement` gives. After the first round only the vertices around the last
+    /// round's moves are visited, and they move only by more than `ODT_SETTLE` of their
+    /// local step. Returns which vertices moved.
     ///
     /// A move is kept under `polish`'s angle guard (the fan's smallest angle stays at or
     /// above the smaller of `KEEP_ANGLE` and what it was), with every triangle facing ∇f,
     /// and every edge that grows beyond the fan's longest with its midpoint within
     /// `ODT_CHORD` of the chord tolerance from the surface (the flips' test; the
-    /// verification checks the centroids too, which lie up to a third further out).
-    fn odt(
+    /// verification checks the centroids too, which lie up to a third further out)
+    /// (`Fan::guards_move`). The guard is what makes the centroid safe where the issue
+    /// warns of plain Laplace smoothing: no move lowers a fan's smallest angle below 34°
+    /// or below where it was.
+    fn smoothing_rounds(
         &mut self,
-        mean: f64,
-        aim: f64,
+        placement: Placement,
+        rounds: u32,
         tolerance: f64,
         surface: &mut dyn Surface,
         project: &mut Project<'_>,
         report: &mut Report,
-    ) -> (Vec<bool>, f64) {
-        let mut mean = mean;
-        if mean >= aim {
-            return (vec![false; self.pos.len()], mean);
-        }
-        let spacing = self.spacing();
+    ) -> Vec<bool> {
+        let spacing = match placement {
+            Placement::Odt => self.spacing(),
+            Placement::Centroid => Vec::new(),
+        };
         let keep = KEEP_ANGLE.sin().powi(2);
         let mut moved = vec![false; self.pos.len()];
         let mut star = Vec::new();
+        let mut fan = Fan::empty();
         // Each round visits the vertices around what the round before moved.
         let mut active = vec![true; self.pos.len()];
-        let rounds = if aim.is_finite() {
-            ODT_FIRST_ROUNDS
-        } else {
-            ODT_ROUNDS
-        };
         for _ in 0..rounds {
             let mut moved_now = vec![false; self.pos.len()];
             for v in 0..self.pos.len() as u32 {
@@ -1896,44 +1941,67 @@ impl<'a> Stage<'a> {
                 {
                     continue;
                 }
-                let p = self.p(v);
-                let Some(target) = self.odt_target(v, &star, &spacing) else {
-                    continue;
+                let (p, n) = (self.p(v), self.normal[v as usize]);
+                let settled = |target: DVec3| p.distance(target) < ODT_SETTLE * self.h[v as usize];
+                // The ODT's target needs only the star: the fan is gathered only for the
+                // targets that are not too near to take.
+                let odt_target = match placement {
+                    Placement::Centroid => None,
+                    Placement::Odt => match self.odt_target(v, &star, &spacing) {
+                        Some(target) if !settled(target) => Some(target),
+                        _ => continue,
+                    },
                 };
-                // Most targets are this near (`ODT_SETTLE`): the fan is gathered only for
-                // the others.
-                if p.distance(target) < ODT_SETTLE * spacing[v as usize] {
+                if !fan.gather(self, &star) {
                     continue;
                 }
-                let Some(fan) = Fan::closed(self, &star) else {
-                    continue;
+                let target = match odt_target {
+                    Some(target) => target,
+                    None => {
+                        let target = fan.centroid(p, n);
+                        if settled(target) {
+                            continue;
+                        }
+                        target
+                    }
                 };
                 let Some((sp, sn)) = project(surface, target) else {
                     continue;
                 };
-                // The guard new ≥ min(old, keep): most fans are above `keep` at the target,
-                // and then the fan where it was is not measured.
-                let worst = fan.eval(sp).worst;
-                if (worst >= keep || worst >= fan.eval(p).worst)
-                    && fan.holds(sp, sn, f64::INFINITY)
-                    && chords_within(&fan, p, sp, surface, ODT_CHORD * tolerance)
-                {
+                if fan.guards_move(p, sp, sn, keep, surface, ODT_CHORD * tolerance) {
                     self.place(v, sp, sn);
                     moved[v as usize] = true;
                     moved_now[v as usize] = true;
-                    report.odt_moves += 1;
+                    report.smoothing_moves += 1;
                 }
             }
-            report.odt_rounds += 1;
+            match placement {
+                Placement::Centroid => report.centroid_rounds += 1,
+                Placement::Odt => report.odt_rounds += 1,
+            }
             active = self.grow(&moved_now);
-            if aim.is_finite() {
-                mean = self.mean_ratio();
-                if mean >= aim {
-                    break;
-                }
+        }
+        moved
+    }
+
+    /// The mean radius ratio of the triangles (1 for none), and the triangles whose
+    /// smallest angle has a sine below `sin_bad`, in one scan.
+    fn survey(&self, sin_bad: f64) -> (f64, Vec<u32>) {
+        let mut below = Vec::new();
+        let mut sum = 0.0;
+        for (i, &t) in self.tri.iter().enumerate() {
+            let (sin, ratio) = shape(self.corners(t));
+            sum += ratio;
+            if sin < sin_bad {
+                below.push(i as u32);
             }
         }
-        (moved, mean)
+        let mean = if self.tri.is_empty() {
+            1.0
+        } else {
+            sum / self.tri.len() as f64
+        };
+        (mean, below)
     }
 
     /// The mean radius ratio of the triangles (1 for none).
@@ -1953,7 +2021,16 @@ impl<'a> Stage<'a> {
     }
 
     /// The ODT position of free vertex v (closed fan `star`), in the tangent plane at v;
-    /// None for a fan without area.
+    /// None for a fan without area. The position is the mean of the circumcentres of the
+    /// fan's triangles weighted by their area and a density ρ = s⁻⁴ of the mesh's own spacing
+    /// s (Chen & Xu's ODT update; in the plane a mesh of size s has ρ ∝ s⁻⁴, Du & Wang).
+    ///
+    /// Where `polish` moves a vertex only if its own fan's ratios rise, these moves may
+    /// lower one fan for the next: the energy they descend is the whole mesh's, which lets
+    /// the grading zones' triangles even out (genus 3: 0.962 → 0.970 of mean radius ratio
+    /// with `polish` again after it; docs/marcher.md). The spacing is the mesh's, not the
+    /// local step: the triangles' sizes are what the march and the rounds made of it
+    /// (with the local step, genus 3 reached 0.966).
     fn odt_target(&self, v: u32, star: &[u32], spacing: &[f64]) -> Option<DVec3> {
         let p = self.p(v);
         let (mut sum, mut weight) = (DVec3::ZERO, 0.0);
@@ -2021,28 +2098,42 @@ struct FanQuality {
 impl Fan {
     /// The fan of a closed star (`Stage::star`'s half-edges), or None if it is too long.
     fn closed(stage: &Stage<'_>, star: &[u32]) -> Option<Fan> {
-        let k = star.len();
-        if !(3..=MAX_FAN).contains(&k) {
-            return None;
-        }
-        let mut fan = Fan {
-            k,
+        let mut fan = Fan::empty();
+        fan.gather(stage, star).then_some(fan)
+    }
+
+    /// A fan of no triangles, to `gather` into.
+    fn empty() -> Fan {
+        Fan {
+            k: 0,
             ring: [DVec3::ZERO; MAX_FAN + 1],
             normal: [DVec3::ZERO; MAX_FAN + 1],
             opp: [0.0; MAX_FAN + 1],
-        };
+        }
+    }
+
+    /// Makes this the fan of a closed star (as `closed`) in place; false, and the fan left
+    /// as it was, if the star is too long. A loop over every vertex gathers into one fan:
+    /// a `Fan` is near a kilobyte, and building and moving one a vertex was a tenth of the
+    /// smoothing round's time on the fine sphere.
+    fn gather(&mut self, stage: &Stage<'_>, star: &[u32]) -> bool {
+        let k = star.len();
+        if !(3..=MAX_FAN).contains(&k) {
+            return false;
+        }
+        self.k = k;
         for (i, &e) in star.iter().enumerate() {
             let b = stage.dst(e);
-            fan.ring[i] = stage.p(b);
-            fan.normal[i] = stage.normal[b as usize];
+            self.ring[i] = stage.p(b);
+            self.normal[i] = stage.normal[b as usize];
         }
         // The closing copy: triangle i is (centre, ring[i], ring[i + 1]).
-        fan.ring[k] = fan.ring[0];
-        fan.normal[k] = fan.normal[0];
+        self.ring[k] = self.ring[0];
+        self.normal[k] = self.normal[0];
         for i in 0..k {
-            fan.opp[i] = fan.ring[i].distance(fan.ring[i + 1]);
+            self.opp[i] = self.ring[i].distance(self.ring[i + 1]);
         }
-        Some(fan)
+        true
     }
 
     /// The fan's quality with its centre at p.
@@ -2112,6 +2203,70 @@ impl Fan {
             .fold(0.0, f64::max)
     }
 
+    /// The centroid of the ring, moved into the tangent plane at p (normal n): where the
+    /// first smoothing round puts the fan's centre (`Placement::Centroid`).
+    fn centroid(&self, p: DVec3, n: DVec3) -> DVec3 {
+        let d = self.ring[..self.k].iter().sum::<DVec3>() / self.k as f64 - p;
+        p + d - d.dot(n) * n
+    }
+
+    /// The worst sin² of a smallest angle of the fan with its centre at p (as `eval`'s
+    /// `worst`, without square roots: sin² = |c|²·m²/(x²y²z²), m the shortest side).
+    fn worst_sin2(&self, p: DVec3) -> f64 {
+        let mut worst = f64::INFINITY;
+        let mut u = self.ring[0] - p;
+        let mut x2 = u.length_squared();
+        for i in 0..self.k {
+            let w = self.ring[i + 1] - p;
+            let (y2, z2) = (self.opp[i] * self.opp[i], w.length_squared());
+            worst = worst.min(sin2_of(u.cross(w).length_squared(), x2, y2, z2));
+            (u, x2) = (w, z2);
+        }
+        worst
+    }
+
+    /// The smoothing rounds' guard for moving the fan's centre from `from` to `to` (normal
+    /// n there), in one pass over the fan at `to`: every triangle faces ∇f (as `holds`),
+    /// the smallest angle stays at or above the smaller of `keep` (sin²) and what it was,
+    /// and every edge from `to` longer than the fan's longest from `from` has its midpoint
+    /// within `tolerance` of the surface (|f|/|∇f|, as a flip's new diagonal).
+    fn guards_move(
+        &self,
+        from: DVec3,
+        to: DVec3,
+        n: DVec3,
+        keep: f64,
+        surface: &mut dyn Surface,
+        tolerance: f64,
+    ) -> bool {
+        let longest = self.longest(from);
+        let mut worst = f64::INFINITY;
+        // Bit i: the edge from `to` to ring point i grew beyond `longest`.
+        let mut grown = 0u32;
+        let mut u = self.ring[0] - to;
+        let mut x2 = u.length_squared();
+        for i in 0..self.k {
+            let w = self.ring[i + 1] - to;
+            let (y2, z2) = (self.opp[i] * self.opp[i], w.length_squared());
+            let c = u.cross(w);
+            if !(c.dot(n) > 0.0 && c.dot(self.normal[i]) > 0.0 && c.dot(self.normal[i + 1]) > 0.0) {
+                return false;
+            }
+            worst = worst.min(sin2_of(c.length_squared(), x2, y2, z2));
+            if x2 > longest {
+                grown |= 1 << i;
+            }
+            (u, x2) = (w, z2);
+        }
+        // Most fans stay above `keep`: then the fan where it was is not measured.
+        if worst < keep && worst < self.worst_sin2(from) {
+            return false;
+        }
+        (0..self.k)
+            .filter(|&i| grown & (1 << i) != 0)
+            .all(|i| midpoint_within(surface, to, self.ring[i], tolerance))
+    }
+
     /// Every triangle with the centre at p (normal n) faces the side ∇f points to at its
     /// three corners, and no edge from p is longer than `longest` (squared).
     fn holds(&self, p: DVec3, n: DVec3, longest: f64) -> bool {
@@ -2156,25 +2311,6 @@ fn midpoint_within(surface: &mut dyn Surface, a: DVec3, b: DVec3, tolerance: f64
     let vg = surface.value_gradient(0.5 * (a + b));
     let g = vg.gradient.length();
     g > 0.0 && vg.value.abs() / g <= tolerance
-}
-
-/// Whether every edge from the fan's centre at `to` to its ring that is longer than the
-/// fan's longest edge with the centre at `from` has its midpoint within `tolerance` of the
-/// surface (|f|/|∇f|, as a flip's new diagonal).
-fn chords_within(
-    fan: &Fan,
-    from: DVec3,
-    to: DVec3,
-    surface: &mut dyn Surface,
-    tolerance: f64,
-) -> bool {
-    let longest = fan.longest(from);
-    fan.ring[..fan.k].iter().all(|&q| {
-        if to.distance_squared(q) <= longest {
-            return true;
-        }
-        midpoint_within(surface, to, q, tolerance)
-    })
 }
 
 /// The point of the surface in the plane x[axis] = value nearest q (Newton on f with the
@@ -2548,6 +2684,60 @@ mod tests {
         }
     }
 
+    /// `Fan::guards_move` (one pass, no square roots) against the guard it replaced:
+    /// `eval`'s smallest angle at both places, `holds`, and the midpoint test of the edges
+    /// that grew beyond the fan's longest, on a bowl, over fans and moves of every kind
+    /// (both verdicts and each way of failing occur).
+    #[test]
+    fn the_smoothing_guard_agrees_with_its_parts() {
+        let mut bowl = crate::surface::NativeSurface(|p: DVec3| ValueGrad {
+            value: p.z - 0.3 * (p.x * p.x + p.y * p.y),
+            gradient: DVec3::new(-0.6 * p.x, -0.6 * p.y, 1.0),
+        });
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let (mut taken, mut facing, mut angle, mut chord) = (0, 0, 0, 0);
+        for case in 0..4000 {
+            let k = 3 + case % 7;
+            let jitter: Vec<f64> = (0..18).map(|_| uniform()).collect();
+            let fan = fan_of(k, &jitter);
+            let from = DVec3::new(0.3 * uniform(), 0.3 * uniform(), 0.1 * uniform());
+            let to = from + DVec3::new(0.6 * uniform(), 0.6 * uniform(), 0.1 * uniform());
+            let keep = (25.0 + 10.0 * uniform()).to_radians().sin().powi(2);
+            let n = (DVec3::Z + 0.3 * DVec3::new(uniform(), uniform(), 0.0)).normalize();
+            let tolerance = 0.01;
+            let worst = fan.eval(to).worst;
+            let longest = fan.longest(from);
+            let faces = fan.holds(to, n, f64::INFINITY);
+            let keeps = worst >= keep || worst >= fan.eval(from).worst;
+            let chords = fan.ring[..k].iter().all(|&q| {
+                to.distance_squared(q) <= longest || midpoint_within(&mut bowl, to, q, tolerance)
+            });
+            let fused = fan.guards_move(from, to, n, keep, &mut bowl, tolerance);
+            assert_eq!(fused, faces && keeps && chords, "case {case}");
+            let w = fan.worst_sin2(to);
+            assert!(
+                (w - worst).abs() <= 1e-12 * worst.max(1e-12),
+                "{w} vs {worst}"
+            );
+            taken += usize::from(fused);
+            facing += usize::from(!faces);
+            angle += usize::from(faces && !keeps);
+            chord += usize::from(faces && keeps && !chords);
+        }
+        for count in [taken, facing, angle, chord] {
+            assert!(
+                count >= 40,
+                "{taken} taken, {facing} facing, {angle} angle, {chord} chord"
+            );
+        }
+    }
+
     #[test]
     fn the_ascent_raises_the_ratios_of_an_off_centre_fan() {
         let fan = fan_of(6, &[0.0; 12]);
@@ -2671,22 +2861,32 @@ mod tests {
         let mut at_aim = fresh();
         let report = at_aim.run_aiming(outline.len(), None, before);
         assert_eq!(
-            (report.odt_rounds, report.polish_rounds, report.moves),
-            (0, 0, 0)
+            (
+                report.centroid_rounds,
+                report.odt_rounds,
+                report.polish_rounds,
+                report.moves
+            ),
+            (0, 0, 0, 0)
         );
         assert_eq!(at_aim.pos, pos);
-        // An aim one ODT round reaches: that round, no ratio phase.
+        // An aim one centroid round reaches: that round, no ratio phase.
         let mut one = fresh();
         let report = one.run_aiming(outline.len(), None, before + 0.001);
         let after_one = one.mean_ratio();
         assert_eq!(
-            (report.odt_rounds, report.polish_rounds),
-            (1, 0),
+            (
+                report.centroid_rounds,
+                report.odt_rounds,
+                report.polish_rounds
+            ),
+            (1, 0, 0),
             "{report:?}"
         );
         assert!(after_one >= before + 0.001, "{before} → {after_one}");
         assert_eq!(report.ratio_after, after_one);
-        // Out of reach: every phase, and a higher mean than the ODT round alone gave.
+        // Out of reach: the ratios' phase around the ODT's rounds, and a higher mean than
+        // the centroid round alone gave.
         let mut all = fresh();
         let report = all.run_aiming(outline.len(), None, 1.0);
         assert!(

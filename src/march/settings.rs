@@ -54,9 +54,10 @@ pub struct MarchSettings {
     /// insert). Default 6.
     pub quality_rounds: u32,
     /// The mean radius ratio the quality stage raises a mesh to once its angles are mended:
-    /// a round of the ODT's smoothing where that can reach it, and the costlier ratios'
-    /// phase only for a mesh still below it. Default 0.975 (DESIGN.md §6's bar of 0.97 with
-    /// a margin). At 1 every mesh gets every phase (a mesh block's `radius_ratio:`).
+    /// a round of smoothing towards the rings' centroids where that can reach it, and the
+    /// costlier ratios' phase only for a mesh still below it (or with a triangle still below
+    /// the angle). Default 0.975 (DESIGN.md §6's bar of 0.97 with a margin). At 1 every mesh
+    /// gets every phase (a mesh block's `radius_ratio:`).
     pub quality_ratio: f64,
     /// The quality stage inserts at most this fraction of the triangle count (plus 64) as
     /// new vertices. Default 0.05.
