@@ -5,7 +5,7 @@
 //! `components/…`: genus 3 at step 0.3 meshed from its box alone (the component search of
 //! `survey::components`) against the same box with a start point, and the search's share of
 //! the time (printed once). `quality/sphere_0.01_{off,on}`: the sphere at step 0.01 with the
-//! quality stage off and on (its cost). `verify/crossings_sphere_0.01`: the crossing check of
+//! quality stage off and on (its cost), and its share from interleaved pairs (printed once). `verify/crossings_sphere_0.01`: the crossing check of
 //! the verification alone on the 1.3 M-triangle sphere.
 
 use std::hint::black_box;
@@ -129,6 +129,32 @@ fn quality_share(c: &mut Criterion, start: DVec3) {
         ..MarchSettings::default()
     };
     let on = MarchSettings::default();
+    // The share, from interleaved pairs of runs (after a warm-up pair) so that a load from
+    // elsewhere on the machine falls on both alike: criterion's samples of one and then of
+    // the other cannot separate the stage's 0.6 s from this machine's swings of a second.
+    let time = |settings: &MarchSettings| {
+        let t = Instant::now();
+        black_box(march(&mut sphere(), &input, settings).map(|m| m.triangles.len())).ok();
+        t.elapsed().as_secs_f64()
+    };
+    let pairs: Vec<(f64, f64)> = (0..10).map(|_| (time(&off), time(&on))).skip(1).collect();
+    let median = |mut t: Vec<f64>| {
+        t.sort_by(f64::total_cmp);
+        t[t.len() / 2]
+    };
+    let (t_off, t_on) = (
+        median(pairs.iter().map(|p| p.0).collect()),
+        median(pairs.iter().map(|p| p.1).collect()),
+    );
+    let shares: Vec<f64> = pairs.iter().map(|(a, b)| 100.0 * (b - a) / b).collect();
+    eprintln!(
+        "sphere_0.01 quality stage: off {t_off:.3} s, on {t_on:.3} s (medians of {} interleaved pairs): the stage is {:.0} % of the meshing time (median of the pairs' shares {:.0} %, from {:.0} to {:.0} %)",
+        pairs.len(),
+        100.0 * (t_on - t_off) / t_on,
+        median(shares.clone()),
+        shares.iter().copied().fold(f64::INFINITY, f64::min),
+        shares.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    );
     let mut g = c.benchmark_group("quality");
     g.sample_size(10);
     for (name, settings) in [("sphere_0.01_off", off), ("sphere_0.01_on", on)] {
