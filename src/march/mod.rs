@@ -447,6 +447,21 @@ fn improve(
         // One more Newton step's worth of accuracy is what the marcher's points have.
         Some((sp.point, sp.normal))
     };
+    let trace = std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0");
+    // For the trace only: a whole-mesh scan the stage itself does not need.
+    let below_before = trace.then(|| {
+        let sin_bad = limits.angle.sin();
+        let vs = &m.mesh.vertices;
+        let corners = |t: &[u32; 3]| t.map(|v| vs[v as usize]);
+        m.mesh
+            .triangles
+            .iter()
+            .filter(|t| {
+                let [a, b, c] = corners(t);
+                quality::min_sin(a, b, c) < sin_bad
+            })
+            .count()
+    });
     let started = std::time::Instant::now();
     let report = quality::Stage::new(
         &mut m.mesh.vertices,
@@ -461,10 +476,10 @@ fn improve(
     if report.collapsed > 0 {
         m.drop_unused();
     }
-    if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
+    if let Some(below_before) = below_before {
         eprintln!(
             "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es), {} removed in {} round(s) ({:.3} s); mean radius ratio {:.4}, then {} centroid and {} ODT round(s) of smoothing with {} move(s) ({:.3} s) and {} round(s) of the ratios' phase: {:.4}; {:.3} s in all; stopped: {}",
-            report.below_before,
+            below_before,
             limits.angle.to_degrees(),
             report.below_after,
             report.flips,

@@ -164,7 +164,6 @@ pub(super) struct Limits {
 /// What the stage did, for `SURFC_TRACE`.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Report {
-    pub below_before: usize,
     pub below_after: usize,
     pub flips: usize,
     pub moves: usize,
@@ -1594,7 +1593,6 @@ impl<'a> Stage<'a> {
         let sin_bad = limits.angle.sin();
         self.bad_sin2 = sin_bad * sin_bad;
         let mut report = Report {
-            below_before: self.tri.iter().filter(|&&t| self.q(t) < sin_bad).count(),
             stop: "no triangle below the target",
             ..Report::default()
         };
