@@ -1929,7 +1929,7 @@ impl<'a> Stage<'a> {
         let mut fan = Fan::empty();
         // Each round visits the vertices around what the round before moved.
         let mut active = vec![true; self.pos.len()];
-        for _ in 0..rounds {
+        for round in 0..rounds {
             let mut moved_now = vec![false; self.pos.len()];
             for v in 0..self.pos.len() as u32 {
                 if !active[v as usize]
@@ -1977,7 +1977,9 @@ impl<'a> Stage<'a> {
                 Placement::Centroid => report.centroid_rounds += 1,
                 Placement::Odt => report.odt_rounds += 1,
             }
-            active = self.grow(&moved_now);
+            if round + 1 < rounds {
+                active = self.grow(&moved_now);
+            }
         }
         moved
     }
