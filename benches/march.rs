@@ -5,7 +5,8 @@
 //! `components/…`: genus 3 at step 0.3 meshed from its box alone (the component search of
 //! `survey::components`) against the same box with a start point, and the search's share of
 //! the time (printed once). `quality/sphere_0.01_{off,on}`: the sphere at step 0.01 with the
-//! quality stage off and on (its cost), and its share from interleaved pairs (printed once). `verify/crossings_sphere_0.01`: the crossing check of
+//! quality stage off and on (its cost), and its share from interleaved pairs (printed
+//! once). `verify/crossings_sphere_0.01`: the crossing check of
 //! the verification alone on the 1.3 M-triangle sphere.
 
 use std::hint::black_box;

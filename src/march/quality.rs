@@ -135,9 +135,9 @@ const ODT_SETTLE: f64 = 0.01;
 enum Placement {
     /// The centroid of its ring in the tangent plane: the round tried first, towards the
     /// aim. On the fine sphere it brings the mean radius ratio from 0.956 to 0.980, where
-    /// an ODT round brought it to 0.977, for a fifth less time (no circumcentres, and the
+    /// an ODT round brought it to 0.977, in about half the time (no circumcentres, and the
     /// ring is gathered once for the target and the guard); it gained more than the ODT's
-    /// round on all but one of the gallery's meshes (docs/marcher.md).
+    /// round on all but two of the gallery's meshes (docs/marcher.md).
     Centroid,
     /// The ODT position (`Stage::odt_target`): the rounds between `polish`'s two passes,
     /// where the grading zones' triangles even out.
