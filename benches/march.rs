@@ -5,9 +5,10 @@
 //! `components/…`: genus 3 at step 0.3 meshed from its box alone (the component search of
 //! `survey::components`) against the same box with a start point, and the search's share of
 //! the time (printed once). `quality/sphere_0.01_{off,on}`: the sphere at step 0.01 with the
-//! quality stage off and on (its cost), and its share from interleaved pairs (printed
-//! once). `verify/crossings_sphere_0.01`: the crossing check of
-//! the verification alone on the 1.3 M-triangle sphere.
+//! quality stage off and on (its cost), and its share from interleaved pairs (printed once),
+//! marched as one piece and in slabs as `surfc mesh` marches it.
+//! `verify/crossings_sphere_0.01`: the crossing check of the verification alone on the
+//! 1.3 M-triangle sphere.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -22,6 +23,7 @@ use surfc::sema::program::{SurfaceId, SurfaceRef};
 use surfc::surface::compiled::CompiledSurface;
 use surfc::surface::{NativeSurface, Surface, ValueGrad};
 use surfc::survey::components::{Marching, SearchSettings, mesh_components};
+use surfc::survey::pieces;
 
 fn sphere() -> impl Surface {
     NativeSurface(|p: DVec3| ValueGrad {
@@ -122,7 +124,9 @@ fn case_with<S: Surface>(
 }
 
 /// The quality stage's share of the meshing time (issue 13, M4: aim ≤ 15 %): the sphere at
-/// step 0.01 meshed with the stage off (`quality_angle = 0`) and on, interleaved in one run.
+/// step 0.01 meshed with the stage off (`quality_angle = 0`) and on, interleaved in one run,
+/// marched as one piece (the march's mean radius ratio furthest from the aim) and in slabs
+/// as `surfc mesh` marches it.
 fn quality_share(c: &mut Criterion, start: DVec3) {
     let input = MarchInput::from_point(0.01, start);
     let off = MarchSettings {
@@ -138,23 +142,27 @@ fn quality_share(c: &mut Criterion, start: DVec3) {
         black_box(march(&mut sphere(), &input, settings).map(|m| m.triangles.len())).ok();
         t.elapsed().as_secs_f64()
     };
-    let pairs: Vec<(f64, f64)> = (0..10).map(|_| (time(&off), time(&on))).skip(1).collect();
-    let median = |mut t: Vec<f64>| {
-        t.sort_by(f64::total_cmp);
-        t[t.len() / 2]
+    print_share("marched as one piece", time, &off, &on);
+    // The same sphere as `surfc mesh` marches it: cut into slabs (`survey::pieces`), here on
+    // a pool of one thread.
+    let one_thread = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("a pool of one thread");
+    let fork = || Some(Box::new(sphere()) as Box<dyn Surface>);
+    let time_pieces = |settings: &MarchSettings| {
+        let t = Instant::now();
+        one_thread.install(|| {
+            let pieced = pieces::march(&mut sphere(), Some(&fork), &input, settings, None);
+            black_box(pieced.map(|p| p.marched.mesh.triangles.len())).ok();
+        });
+        t.elapsed().as_secs_f64()
     };
-    let (t_off, t_on) = (
-        median(pairs.iter().map(|p| p.0).collect()),
-        median(pairs.iter().map(|p| p.1).collect()),
-    );
-    let shares: Vec<f64> = pairs.iter().map(|(a, b)| 100.0 * (b - a) / b).collect();
-    eprintln!(
-        "sphere_0.01 quality stage: off {t_off:.3} s, on {t_on:.3} s (medians of {} interleaved pairs): the stage is {:.0} % of the meshing time (median of the pairs' shares {:.0} %, from {:.0} to {:.0} %)",
-        pairs.len(),
-        100.0 * (t_on - t_off) / t_on,
-        median(shares.clone()),
-        shares.iter().copied().fold(f64::INFINITY, f64::min),
-        shares.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    print_share(
+        "in slabs, as `surfc mesh` marches it, one thread",
+        time_pieces,
+        &off,
+        &on,
     );
     let mut g = c.benchmark_group("quality");
     g.sample_size(10);
@@ -167,6 +175,37 @@ fn quality_share(c: &mut Criterion, start: DVec3) {
         });
     }
     g.finish();
+}
+
+/// The quality stage's share of the meshing time as `time` measures it with the stage off and
+/// on: from the medians of nine interleaved pairs of runs (after a warm-up pair), so that a
+/// load from elsewhere on the machine falls on both alike (criterion's samples of one and
+/// then of the other cannot separate the stage's tenths of a second from this machine's
+/// swings of a second), and the spread of the pairs' own shares.
+fn print_share(
+    case: &str,
+    time: impl Fn(&MarchSettings) -> f64,
+    off: &MarchSettings,
+    on: &MarchSettings,
+) {
+    let pairs: Vec<(f64, f64)> = (0..10).map(|_| (time(off), time(on))).skip(1).collect();
+    let median = |mut t: Vec<f64>| {
+        t.sort_by(f64::total_cmp);
+        t[t.len() / 2]
+    };
+    let (t_off, t_on) = (
+        median(pairs.iter().map(|p| p.0).collect()),
+        median(pairs.iter().map(|p| p.1).collect()),
+    );
+    let shares: Vec<f64> = pairs.iter().map(|(a, b)| 100.0 * (b - a) / b).collect();
+    eprintln!(
+        "sphere_0.01 {case}, quality stage: off {t_off:.3} s, on {t_on:.3} s (medians of {} interleaved pairs): the stage is {:.0} % of the meshing time (median of the pairs' shares {:.0} %, from {:.0} to {:.0} %)",
+        pairs.len(),
+        100.0 * (t_on - t_off) / t_on,
+        median(shares.clone()),
+        shares.iter().copied().fold(f64::INFINITY, f64::min),
+        shares.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    );
 }
 
 /// The surface `name` of a gallery file, compiled to bytecode (no `dist` in these files).

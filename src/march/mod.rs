@@ -443,9 +443,7 @@ fn improve(
     };
     let (step, sp_tol) = (input.step, settings.surface_point);
     let mut project = |s: &mut dyn Surface, q: DVec3| {
-        let sp = crate::solve::surface_point(s, q, step, &sp_tol).ok()?;
-        // One more Newton step's worth of accuracy is what the marcher's points have.
-        Some((sp.point, sp.normal))
+        crate::solve::surface_point_and_normal(s, q, step, &sp_tol).ok()
     };
     let trace = std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0");
     // For the trace only: a whole-mesh scan the stage itself does not need.

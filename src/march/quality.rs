@@ -282,6 +282,13 @@ pub(super) struct Stage<'a> {
     bad_sin2: f64,
 }
 
+/// A triangle's smallest angle's sine (`min_sin`) and radius ratio (`radius_ratio`).
+#[derive(Clone, Copy)]
+struct Shape {
+    sin: f64,
+    ratio: f64,
+}
+
 /// One change recorded while an insertion is on trial.
 enum Undo {
     Tri(u32, [u32; 3]),
@@ -311,70 +318,65 @@ impl<'a> Stage<'a> {
         bbox: Option<(DVec3, DVec3)>,
     ) -> Self {
         let n = pos.len();
-        // Outgoing half-edges per vertex, as a compressed list.
-        let mut start = vec![0u32; n + 1];
-        for t in tri.iter() {
-            for &v in t {
-                start[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut list = vec![0u32; 3 * tri.len()];
-        for (i, t) in tri.iter().enumerate() {
-            for (k, &v) in t.iter().enumerate() {
-                list[fill[v as usize] as usize] = 3 * i as u32 + k as u32;
-                fill[v as usize] += 1;
-            }
-        }
-        let mut twin = vec![NONE; 3 * tri.len()];
+        let corners = 3 * tri.len() as u32;
+        // Per vertex, its corners in triangle order as a linked list: `out` the first, and
+        // `twin` (until the vertex's twins are written over it) the next, each corner named
+        // by the half-edge leaving it (3t + k). A slot is read only when its own vertex's
+        // list is walked, just before that vertex's twins are written.
         let mut out = vec![NONE; n];
-        let mut frozen = vec![false; n];
-        // The destination of each listed half-edge, beside it: the searches below read
-        // their vertices' lists in order instead of chasing each half-edge into `tri`
-        // (on the fine sphere that chase was most of this function's time).
-        let list_dst: Vec<u32> = list
-            .iter()
-            .map(|&e| tri[(e / 3) as usize][(next(e) % 3) as usize])
-            .collect();
-        let range = |v: usize| start[v] as usize..start[v + 1] as usize;
-        for a in 0..n {
-            let outs = range(a);
-            if !outs.is_empty() {
-                out[a] = list[outs.start];
-            }
-            for i in outs.clone() {
-                let (e, b) = (list[i], list_dst[i] as usize);
-                // More than one half-edge a → b: a non-manifold edge (found at its a).
-                let same = list_dst[outs.clone()]
-                    .iter()
-                    .filter(|&&d| d as usize == b)
-                    .count();
-                if same > 1 {
-                    frozen[a] = true;
-                    frozen[b] = true;
-                }
-                // Each pair is linked once, from its lower end; more than one half-edge
-                // b → a is the other end's `same`.
-                if a > b {
-                    continue;
-                }
-                let mut back = range(b).filter(|&j| list_dst[j] as usize == a);
-                if let (1, Some(f), None) = (same, back.next(), back.next()) {
-                    twin[e as usize] = list[f];
-                    twin[list[f] as usize] = e;
-                }
-            }
+        let mut twin = vec![NONE; corners as usize];
+        for e in (0..corners).rev() {
+            let a = tri[(e / 3) as usize][(e % 3) as usize] as usize;
+            twin[e as usize] = out[a];
+            out[a] = e;
         }
+        // At the corner of triangle (a, b, c) at a, the half-edge a → b leaves a and c → a
+        // arrives: the twin of a → b (the half-edge b → a) is the arriving half-edge of the
+        // corner of a whose third vertex is b. Every twin is found among one vertex's own
+        // corners: searching the other end's corners, as before, took half as long again
+        // on the fine sphere.
+        let mut frozen = vec![false; n];
         // A vertex with more than one boundary edge leaving it is where two fans touch:
         // neither smoothing nor a slide sees all its triangles, so it stays.
         let mut gaps = vec![0u8; n];
-        for (e, &f) in twin.iter().enumerate() {
-            if f == NONE {
-                let a = tri[e / 3][e % 3] as usize;
-                gaps[a] = gaps[a].saturating_add(1);
+        // The corners of one vertex: (leaving half-edge, its end b, the third vertex c).
+        let mut fan: Vec<(u32, u32, u32)> = Vec::new();
+        for a in 0..n {
+            fan.clear();
+            let mut e = out[a];
+            while e != NONE {
+                let t = tri[(e / 3) as usize];
+                fan.push((e, t[((e + 1) % 3) as usize], t[((e + 2) % 3) as usize]));
+                e = twin[e as usize];
+            }
+            // A manifold vertex (nearly every one) has its corners' ends all different, and
+            // their third vertices too: then a half-edge's twin is the one arriving from its
+            // end, if any. Elsewhere an end met twice is a non-manifold edge: no twins there.
+            let manifold = fan
+                .iter()
+                .enumerate()
+                .all(|(i, x)| fan[i + 1..].iter().all(|y| x.1 != y.1 && x.2 != y.2));
+            for &(e, b, _) in &fan {
+                let leaving = if manifold {
+                    1
+                } else {
+                    fan.iter().filter(|d| d.1 == b).count()
+                };
+                let mut arriving = fan.iter().filter(|d| d.2 == b);
+                twin[e as usize] = NONE;
+                match (
+                    leaving,
+                    arriving.next(),
+                    manifold || arriving.next().is_none(),
+                ) {
+                    (1, Some(back), true) => twin[e as usize] = prev(back.0),
+                    (1, None, _) => gaps[a] = gaps[a].saturating_add(1),
+                    _ => {
+                        frozen[a] = true;
+                        frozen[b as usize] = true;
+                        gaps[a] = gaps[a].saturating_add(1);
+                    }
+                }
             }
         }
         for (fz, &g) in frozen.iter_mut().zip(&gaps) {
@@ -745,14 +747,41 @@ impl<'a> Stage<'a> {
         tolerance: f64,
     ) -> (usize, bool) {
         let mut flips = 0;
+        // A queue of most of the mesh's edges (the first round's) is screened with the
+        // triangles' obtuse corners, measured in one pass in triangle order: an edge with
+        // neither opposite angle obtuse is not flipped (`try_flip_as`'s first test on the
+        // angles, on the same dot products), and on a marched mesh that is nearly every
+        // edge. Screening each edge through its own four corners was the first round's
+        // time (random reads of positions, on the fine sphere 0.1 s for 6 flips).
+        let mut obtuse = (queue.len() >= self.tri.len()).then(|| {
+            (0..self.tri.len() as u32)
+                .map(|t| self.obtuse_corners(t))
+                .collect::<Vec<u8>>()
+        });
         queue.reverse();
         while let Some(e) = queue.pop() {
             if flips >= budget {
                 return (flips, false);
             }
-            let (t, u) = (e / 3, self.twin[e as usize] / 3);
+            let f = self.twin[e as usize];
+            if f == NONE {
+                continue;
+            }
+            let (t, u) = (e / 3, f / 3);
+            // The corner opposite half-edge e is the next after its end.
+            let opposite = |g: u32| 1u8 << ((g + 2) % 3);
+            if let Some(obtuse) = &obtuse
+                && obtuse[t as usize] & opposite(e) == 0
+                && obtuse[u as usize] & opposite(f) == 0
+            {
+                continue;
+            }
             if self.try_flip(e, surface, tolerance) {
                 flips += 1;
+                if let Some(obtuse) = &mut obtuse {
+                    obtuse[t as usize] = self.obtuse_corners(t);
+                    obtuse[u as usize] = self.obtuse_corners(u);
+                }
                 // The four outer edges of the quad.
                 for x in [3 * t, 3 * t + 2, 3 * u, 3 * u + 1] {
                     queue.push(x);
@@ -760,6 +789,21 @@ impl<'a> Stage<'a> {
             }
         }
         (flips, true)
+    }
+
+    /// Bit k: the angle of triangle t at its corner k is obtuse (the dot product of its
+    /// sides there is negative, computed as `try_flip_as` does).
+    fn obtuse_corners(&self, t: u32) -> u8 {
+        let p = self.corners(self.tri[t as usize]);
+        (0..3).fold(0, |bits, k| {
+            // Corner k is opposite the side from corner k + 1 to k + 2.
+            let (a, b, c) = (p[(k + 1) % 3], p[(k + 2) % 3], p[k]);
+            if (a - c).dot(b - c) < 0.0 {
+                bits | 1 << k
+            } else {
+                bits
+            }
+        })
     }
 
     // ------------------------------------------------------------ smoothing
@@ -1535,22 +1579,33 @@ impl<'a> Stage<'a> {
 
     // ------------------------------------------------------------ driver
 
-    /// Per triangle: the sine of its smallest angle (`q`), for the scans of a round to share.
-    fn sines(&self) -> Vec<f64> {
-        self.tri.iter().map(|&t| self.q(t)).collect()
+    /// Triangle t's `Shape`.
+    fn shape_of(&self, t: [u32; 3]) -> Shape {
+        let [a, b, c] = self.corners(t);
+        Shape {
+            sin: min_sin(a, b, c),
+            ratio: radius_ratio(a, b, c),
+        }
     }
 
-    /// Per vertex: a corner of a triangle whose smallest angle's sine (`sines`) is below `sin`.
-    fn corners_below(&self, sines: &[f64], sin: f64) -> Vec<bool> {
+    /// Per triangle: its `Shape`, for the scans of a round to share; and per vertex, whether
+    /// it is a corner of a triangle whose smallest angle's sine is below `sin`.
+    fn shapes_and_corners_below(&self, sin: f64) -> (Vec<Shape>, Vec<bool>) {
         let mut marked = vec![false; self.pos.len()];
-        for (t, &q) in self.tri.iter().zip(sines) {
-            if q < sin {
-                for &v in t {
-                    marked[v as usize] = true;
+        let shapes = self
+            .tri
+            .iter()
+            .map(|&t| {
+                let shape = self.shape_of(t);
+                if shape.sin < sin {
+                    for v in t {
+                        marked[v as usize] = true;
+                    }
                 }
-            }
-        }
-        marked
+                shape
+            })
+            .collect();
+        (shapes, marked)
     }
 
     /// `marked` and the vertices that share a triangle with a marked one.
@@ -1599,7 +1654,8 @@ impl<'a> Stage<'a> {
         let max_inserted = (limits.insert_fraction * self.tri.len() as f64) as usize + 64;
         let started = std::time::Instant::now();
         let all = vec![true; self.pos.len()];
-        self.angle_rounds(all, limits, max_inserted, &mut report, surface, project);
+        report.ratio_after_rounds =
+            self.angle_rounds(all, limits, max_inserted, &mut report, surface, project);
         // The angle is where the rounds proper leave it; now the mean radius ratio, raised
         // to `Limits::ratio` cheapest first: a round of smoothing towards the rings'
         // centroids (a projection a vertex) where it can reach it (`ODT_REACH`); only where
@@ -1607,7 +1663,6 @@ impl<'a> Stage<'a> {
         // the cost of a smoothing round) over every vertex, ODT rounds, and the ratios' phase
         // where they moved something — under a guard that cannot lower the angle (`polish`).
         report.rounds_seconds = started.elapsed().as_secs_f64();
-        report.ratio_after_rounds = self.mean_ratio();
         let (aim, reach) = (limits.ratio, limits.ratio - ODT_REACH);
         if (reach..aim).contains(&report.ratio_after_rounds) {
             let smoothing_started = std::time::Instant::now();
@@ -1666,7 +1721,8 @@ impl<'a> Stage<'a> {
 
     /// The rounds proper, for the angle: flips, smoothing near triangles below the target,
     /// insertion and removal, starting from the vertices marked `dirty`, while at most
-    /// `max_inserted` vertices are inserted in all (`report.inserted` counts them).
+    /// `max_inserted` vertices are inserted in all (`report.inserted` counts them). Returns
+    /// the mean radius ratio they leave (1 for no triangle).
     fn angle_rounds(
         &mut self,
         mut dirty: Vec<bool>,
@@ -1675,8 +1731,9 @@ impl<'a> Stage<'a> {
         report: &mut Report,
         surface: &mut dyn Surface,
         project: &mut Project<'_>,
-    ) {
+    ) -> f64 {
         let sin_bad = limits.angle.sin();
+        let mut ratio_sum = 0.0;
         let mut star = Vec::new();
         // The rounds proper, then up to `SLIDE_ROUNDS` more while triangles stay below the
         // target, in which border vertices slide too.
@@ -1697,10 +1754,10 @@ impl<'a> Stage<'a> {
             let mut moves = 0;
             // Border vertices slide only where a triangle of theirs is below the target:
             // elsewhere the box's border is as the march placed it.
-            // The triangles' sines, computed once here and kept up to date through the
-            // smoothing (only the fans of moved vertices change) for the scans after it.
-            let mut sines = self.sines();
-            let bad_corner = self.corners_below(&sines, sin_bad);
+            // The triangles' shapes, computed once here and kept up to date through the
+            // smoothing (only the fans of moved vertices change) for the scans after it and
+            // for the mean radius ratio the rounds end with.
+            let (mut shapes, bad_corner) = self.shapes_and_corners_below(sin_bad);
             let mut smoothed = bad_corner.clone();
             for _ in 0..BAD_RINGS {
                 smoothed = self.grow(&smoothed);
@@ -1717,23 +1774,21 @@ impl<'a> Stage<'a> {
                 }
             }
             report.moves += moves;
-            if moves > 0 {
-                for (t, q) in self.tri.iter().zip(sines.iter_mut()) {
-                    if t.iter().any(|&v| moved[v as usize]) {
-                        *q = self.q(*t);
+            // 3. Insertion where a triangle is still below the target (not in the last
+            // round, which flips and smooths around the last insertions). The triangles
+            // below it are listed in the scan that brings the moved fans' shapes up to date.
+            let last = round + 1 == limits.rounds || round + 1 == total;
+            let mut bad: Vec<u32> = Vec::new();
+            if moves > 0 || !last {
+                for (i, (t, shape)) in self.tri.iter().zip(shapes.iter_mut()).enumerate() {
+                    if moves > 0 && t.iter().any(|&v| moved[v as usize]) {
+                        *shape = self.shape_of(*t);
+                    }
+                    if !last && shape.sin < sin_bad {
+                        bad.push(i as u32);
                     }
                 }
             }
-            // 3. Insertion where a triangle is still below the target (not in the last
-            // round, which flips and smooths around the last insertions).
-            let last = round + 1 == limits.rounds || round + 1 == total;
-            let bad: Vec<u32> = if last {
-                Vec::new()
-            } else {
-                (0..self.tri.len() as u32)
-                    .filter(|&t| sines[t as usize] < sin_bad)
-                    .collect()
-            };
             let any_bad = !bad.is_empty();
             if report.inserted < max_inserted {
                 for t in bad {
@@ -1772,16 +1827,18 @@ impl<'a> Stage<'a> {
                     t += 1;
                 }
             }
-            // Insertions and removals change triangles: then the sines are computed anew.
+            // Insertions and removals change triangles: then the shapes are computed anew.
             if any_bad {
-                sines = self.sines();
+                shapes = self.shapes_and_corners_below(sin_bad).0;
             }
             // What changed (moved or new vertices, triangles still bad) marks the
             // corners of the triangles around it for the next round.
             let mut next_dirty = vec![false; self.pos.len()];
             let mut bad_left = false;
-            for (t, &q) in self.tri.iter().zip(&sines) {
-                let bad = q < sin_bad;
+            ratio_sum = 0.0;
+            for (t, shape) in self.tri.iter().zip(&shapes) {
+                ratio_sum += shape.ratio;
+                let bad = shape.sin < sin_bad;
                 bad_left |= bad;
                 if bad || t.iter().any(|&v| moved.get(v as usize).is_none_or(|&m| m)) {
                     for &v in t {
@@ -1805,6 +1862,11 @@ impl<'a> Stage<'a> {
             if !bad_left && (stalled || round + 1 >= limits.rounds) {
                 break;
             }
+        }
+        if self.tri.is_empty() {
+            1.0
+        } else {
+            ratio_sum / self.tri.len() as f64
         }
     }
 
@@ -1932,32 +1994,34 @@ impl<'a> Stage<'a> {
         for round in 0..rounds {
             let mut moved_now = vec![false; self.pos.len()];
             for v in 0..self.pos.len() as u32 {
-                if !active[v as usize]
-                    || !self.free(v)
-                    || !self.star(v, &mut star)
-                    || !(3..=MAX_FAN).contains(&star.len())
-                {
+                if !active[v as usize] || !self.free(v) {
                     continue;
                 }
                 let (p, n) = (self.p(v), self.normal[v as usize]);
                 let settled = |target: DVec3| p.distance(target) < ODT_SETTLE * self.h[v as usize];
-                // The ODT's target needs only the star: the fan is gathered only for the
-                // targets that are not too near to take.
-                let odt_target = match placement {
-                    Placement::Centroid => None,
-                    Placement::Odt => match self.odt_target(v, &star, &spacing) {
-                        Some(target) if !settled(target) => Some(target),
-                        _ => continue,
-                    },
-                };
-                if !fan.gather(self, &star) {
-                    continue;
-                }
-                let target = match odt_target {
-                    Some(target) => target,
-                    None => {
+                let target = match placement {
+                    // The centroid needs only the fan, gathered straight from the half-edges.
+                    Placement::Centroid => {
+                        if !fan.walk(self, v) {
+                            continue;
+                        }
                         let target = fan.centroid(p, n);
                         if settled(target) {
+                            continue;
+                        }
+                        target
+                    }
+                    // The ODT's target needs only the star: the fan is gathered only for
+                    // the targets that are not too near to take.
+                    Placement::Odt => {
+                        if !self.star(v, &mut star) || !(3..=MAX_FAN).contains(&star.len()) {
+                            continue;
+                        }
+                        let target = match self.odt_target(v, &star, &spacing) {
+                            Some(target) if !settled(target) => target,
+                            _ => continue,
+                        };
+                        if !fan.gather(self, &star) {
                             continue;
                         }
                         target
@@ -2002,22 +2066,6 @@ impl<'a> Stage<'a> {
             sum / self.tri.len() as f64
         };
         (mean, below)
-    }
-
-    /// The mean radius ratio of the triangles (1 for none).
-    fn mean_ratio(&self) -> f64 {
-        if self.tri.is_empty() {
-            return 1.0;
-        }
-        let sum: f64 = self
-            .tri
-            .iter()
-            .map(|&t| {
-                let [a, b, c] = self.corners(t);
-                radius_ratio(a, b, c)
-            })
-            .sum();
-        sum / self.tri.len() as f64
     }
 
     /// The ODT position of free vertex v (closed fan `star`), in the tangent plane at v;
@@ -2085,6 +2133,8 @@ struct Fan {
     ring: [DVec3; MAX_FAN + 1],
     normal: [DVec3; MAX_FAN + 1],
     opp: [f64; MAX_FAN + 1],
+    /// The ring's edge lengths squared (the guards need no more).
+    opp2: [f64; MAX_FAN + 1],
 }
 
 /// The quality of a fan with its centre at some place: the worst sin² of a smallest angle,
@@ -2109,6 +2159,7 @@ impl Fan {
             ring: [DVec3::ZERO; MAX_FAN + 1],
             normal: [DVec3::ZERO; MAX_FAN + 1],
             opp: [0.0; MAX_FAN + 1],
+            opp2: [0.0; MAX_FAN + 1],
         }
     }
 
@@ -2121,19 +2172,62 @@ impl Fan {
         if !(3..=MAX_FAN).contains(&k) {
             return false;
         }
-        self.k = k;
         for (i, &e) in star.iter().enumerate() {
             let b = stage.dst(e);
             self.ring[i] = stage.p(b);
             self.normal[i] = stage.normal[b as usize];
         }
+        self.close(k);
+        for i in 0..k {
+            self.opp[i] = self.opp2[i].sqrt();
+        }
+        true
+    }
+
+    /// `gather` of the closed star of v, walked here (as `Stage::star`) without listing it,
+    /// and without the ring's edge lengths: for `guards_move` and `centroid` only (`eval`
+    /// and `eval_grad` need `gather`). False where `Stage::star` is false or the star is
+    /// not of 3 to `MAX_FAN` triangles.
+    fn walk(&mut self, stage: &Stage<'_>, v: u32) -> bool {
+        let first = stage.out[v as usize];
+        if first == NONE {
+            return false;
+        }
+        let (mut e, mut k) = (first, 0);
+        loop {
+            if k == MAX_FAN {
+                return false;
+            }
+            let b = stage.dst(e);
+            self.ring[k] = stage.p(b);
+            self.normal[k] = stage.normal[b as usize];
+            k += 1;
+            e = stage.twin[prev(e) as usize];
+            if e == NONE {
+                return false;
+            }
+            if e == first {
+                break;
+            }
+        }
+        if k < 3 {
+            return false;
+        }
+        self.close(k);
+        true
+    }
+
+    /// Sets the fan's size to k (ring points 0..k gathered) and completes it: the closing
+    /// copy of the first ring point and the ring's edge lengths squared (`walk`'s fans, for
+    /// the guard only, need no more; `gather` adds the lengths).
+    fn close(&mut self, k: usize) {
+        self.k = k;
         // The closing copy: triangle i is (centre, ring[i], ring[i + 1]).
         self.ring[k] = self.ring[0];
         self.normal[k] = self.normal[0];
         for i in 0..k {
-            self.opp[i] = self.ring[i].distance(self.ring[i + 1]);
+            self.opp2[i] = self.ring[i].distance_squared(self.ring[i + 1]);
         }
-        true
     }
 
     /// The fan's quality with its centre at p.
@@ -2218,7 +2312,7 @@ impl Fan {
         let mut x2 = u.length_squared();
         for i in 0..self.k {
             let w = self.ring[i + 1] - p;
-            let (y2, z2) = (self.opp[i] * self.opp[i], w.length_squared());
+            let (y2, z2) = (self.opp2[i], w.length_squared());
             worst = worst.min(sin2_of(u.cross(w).length_squared(), x2, y2, z2));
             (u, x2) = (w, z2);
         }
@@ -2247,7 +2341,7 @@ impl Fan {
         let mut x2 = u.length_squared();
         for i in 0..self.k {
             let w = self.ring[i + 1] - to;
-            let (y2, z2) = (self.opp[i] * self.opp[i], w.length_squared());
+            let (y2, z2) = (self.opp2[i], w.length_squared());
             let c = u.cross(w);
             if !(c.dot(n) > 0.0 && c.dot(self.normal[i]) > 0.0 && c.dot(self.normal[i + 1]) > 0.0) {
                 return false;
@@ -2645,6 +2739,7 @@ mod tests {
             ring: [DVec3::ZERO; MAX_FAN + 1],
             normal: [DVec3::Z; MAX_FAN + 1],
             opp: [0.0; MAX_FAN + 1],
+            opp2: [0.0; MAX_FAN + 1],
         };
         for i in 0..k {
             let a = std::f64::consts::TAU * (i as f64 + 0.3 * jitter[2 * i]) / k as f64;
@@ -2653,12 +2748,63 @@ mod tests {
         }
         fan.ring[k] = fan.ring[0];
         for i in 0..k {
-            fan.opp[i] = fan.ring[i].distance(fan.ring[i + 1]);
+            fan.opp2[i] = fan.ring[i].distance_squared(fan.ring[i + 1]);
+            fan.opp[i] = fan.opp2[i].sqrt();
         }
         fan
     }
 
     proptest::proptest! {
+        /// `Stage::new`'s twins, first corners and frozen vertices against counts over every
+        /// pair of half-edges, on triangle soups over a few vertices: manifold fans, open
+        /// fans, and edges in three or more triangles or twice the same way (non-manifold).
+        #[test]
+        fn the_twins_match_a_count_of_every_half_edge_pair(
+            n in 4u32..9,
+            picks in proptest::collection::vec(proptest::array::uniform3(0u32..9), 1..16),
+        ) {
+            let tri: Vec<[u32; 3]> = picks
+                .iter()
+                .map(|t| t.map(|v| v % n))
+                .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+                .collect();
+            let nv = n as usize;
+            let mut case = Case {
+                pos: vec![DVec3::ZERO; nv],
+                normal: vec![DVec3::Z; nv],
+                tri: tri.clone(),
+                border: vec![false; nv],
+                h: vec![1.0; nv],
+            };
+            let stage = case.stage(0, None);
+            let half = |e: usize| (tri[e / 3][e % 3], tri[e / 3][(e + 1) % 3]);
+            let count = |a: u32, b: u32| (0..3 * tri.len()).filter(|&f| half(f) == (a, b)).count();
+            let mut frozen = vec![false; nv];
+            let mut open = vec![0; nv];
+            for e in 0..3 * tri.len() {
+                let (a, b) = half(e);
+                let (ab, ba) = (count(a, b), count(b, a));
+                let expected = if ab == 1 && ba == 1 {
+                    (0..3 * tri.len()).find(|&f| half(f) == (b, a)).unwrap() as u32
+                } else {
+                    NONE
+                };
+                proptest::prop_assert_eq!(stage.twin[e], expected, "half-edge {} {:?}", e, (a, b));
+                if ab > 1 || ba > 1 {
+                    frozen[a as usize] = true;
+                    frozen[b as usize] = true;
+                }
+                if expected == NONE {
+                    open[a as usize] += 1;
+                }
+            }
+            for v in 0..nv {
+                let first = (0..3 * tri.len()).find(|&e| half(e).0 == v as u32);
+                proptest::prop_assert_eq!(stage.out[v], first.map_or(NONE, |e| e as u32));
+                proptest::prop_assert_eq!(stage.frozen[v], frozen[v] || open[v] > 1, "vertex {}", v);
+            }
+        }
+
         /// `Fan::eval_grad`'s gradient of the sum of radius ratios against central
         /// differences, over fans of 3 to 9 triangles with the centre off the middle.
         #[test]

@@ -11,5 +11,6 @@ pub use foot::{
     foot_point_hinted, patch_foot,
 };
 pub use surfacepoint::{
-    StartError, SurfacePoint, SurfacePointError, surface_point, surface_point_near, tangent_frame,
+    StartError, SurfacePoint, SurfacePointError, surface_point, surface_point_and_normal,
+    surface_point_near, tangent_frame,
 };

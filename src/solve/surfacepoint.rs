@@ -51,6 +51,24 @@ pub fn surface_point(
     scale: f64,
     tolerance: &SurfacePointTolerance,
 ) -> Result<SurfacePoint, SurfacePointError> {
+    let (point, normal) = surface_point_and_normal(surface, q, scale, tolerance)?;
+    let (t1, t2) = tangent_frame(normal);
+    Ok(SurfacePoint {
+        point,
+        normal,
+        t1,
+        t2,
+    })
+}
+
+/// [`surface_point`]'s point and unit normal, without the tangents (for callers that move
+/// many points and need no frame: the quality stage's smoothing).
+pub fn surface_point_and_normal(
+    surface: &mut dyn Surface,
+    q: DVec3,
+    scale: f64,
+    tolerance: &SurfacePointTolerance,
+) -> Result<(DVec3, DVec3), SurfacePointError> {
     let mut u = q;
     let mut last_step = f64::INFINITY;
     for _ in 0..tolerance.max_iterations {
@@ -68,14 +86,7 @@ pub fn surface_point(
         // Rounding bounds how small a step can get: a few ulps of the point's coordinates.
         let floor = 8.0 * f64::EPSILON * u.abs().max_element();
         if last_step <= (tolerance.relative_step * scale).max(floor) {
-            let normal = g / g2.sqrt();
-            let (t1, t2) = tangent_frame(normal);
-            return Ok(SurfacePoint {
-                point: u - delta,
-                normal,
-                t1,
-                t2,
-            });
+            return Ok((u - delta, g / g2.sqrt()));
         }
         u -= delta;
     }
