@@ -357,19 +357,17 @@ impl<'a> Stage<'a> {
                 .enumerate()
                 .all(|(i, x)| fan[i + 1..].iter().all(|y| x.1 != y.1 && x.2 != y.2));
             for &(e, b, _) in &fan {
+                // Half-edges a → b, and the first b → a and whether there is another.
                 let leaving = if manifold {
                     1
                 } else {
                     fan.iter().filter(|d| d.1 == b).count()
                 };
                 let mut arriving = fan.iter().filter(|d| d.2 == b);
+                let (back, more) = (arriving.next(), !manifold && arriving.next().is_some());
                 twin[e as usize] = NONE;
-                match (
-                    leaving,
-                    arriving.next(),
-                    manifold || arriving.next().is_none(),
-                ) {
-                    (1, Some(back), true) => twin[e as usize] = prev(back.0),
+                match (leaving, back, more) {
+                    (1, Some(back), false) => twin[e as usize] = prev(back.0),
                     (1, None, _) => gaps[a] = gaps[a].saturating_add(1),
                     _ => {
                         frozen[a] = true;
