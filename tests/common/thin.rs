@@ -13,7 +13,7 @@ use super::{Boxed, vg};
 pub struct Shape {
     pub name: String,
     /// f and ∇f, in world coordinates.
-    pub f: std::rc::Rc<dyn Fn(DVec3) -> ValueGrad>,
+    pub f: std::sync::Arc<dyn Fn(DVec3) -> ValueGrad + Send + Sync>,
     /// A point near the surface to start from.
     pub start: DVec3,
     /// χ = 2 − 2·genus.
@@ -52,7 +52,7 @@ pub fn torus(big: f64, r: f64, rot: DMat3) -> Shape {
     );
     Shape {
         name: format!("torus R={big:.3} r={r:.3}"),
-        f: std::rc::Rc::new(f),
+        f: std::sync::Arc::new(f),
         start: rot * DVec3::new(big, 0.0, r),
         euler: 0,
         bbox: (-ext, ext),
@@ -86,7 +86,7 @@ pub fn dumbbell(n: f64, rot: DMat3) -> Shape {
     }
     Shape {
         name: format!("dumbbell neck={n:.3}"),
-        f: std::rc::Rc::new(f),
+        f: std::sync::Arc::new(f),
         start: rot * DVec3::new(-0.5, (0.75 * (0.25 + n2)).sqrt(), 0.0),
         euler: 2,
         bbox: (-ext, ext),
@@ -143,7 +143,7 @@ pub fn plate(holes: usize, a: f64, b: f64, hole: f64, gap: f64, k: f64) -> Shape
     let side = b - hole;
     Shape {
         name: format!("plate holes={holes} gap={gap:.3} k={k:.3}"),
-        f: std::rc::Rc::new(f),
+        f: std::sync::Arc::new(f),
         start: DVec3::new(0.0, 0.5 * (hole + b), zmax),
         euler: 2 - 2 * holes as i64,
         bbox: (DVec3::new(-a, -b, -zmax), DVec3::new(a, b, zmax)),
@@ -163,7 +163,7 @@ pub fn superquadric(a: f64, b: f64, c: f64, p: i32) -> Shape {
     };
     Shape {
         name: format!("superquadric {a:.3}×{b:.3}×{c:.3} p={p}"),
-        f: std::rc::Rc::new(f),
+        f: std::sync::Arc::new(f),
         start: DVec3::new(0.0, 0.0, c),
         euler: 2,
         bbox: (-s, s),
@@ -249,7 +249,7 @@ pub fn blobs(
                 .map(|r| (r * 1000.0).round() / 1000.0)
                 .collect::<Vec<_>>()
         ),
-        f: std::rc::Rc::new(f),
+        f: std::sync::Arc::new(f),
         start: DVec3::new(0.0, 0.0, ball),
         euler: 2,
         bbox: (lo - reach, hi + reach),
