@@ -182,6 +182,29 @@ fn a_march_that_cannot_end_says_why_within_two_seconds() {
     }
 }
 
+/// A thin closed ring, an O-ring 2 wide of tube 0.04 at step 0.004: its mesh grows as a
+/// tube's does along most of the ring (doubling its extent with its triangles, 1.4 across
+/// after 33 k triangles), and was refused as "unbounded, add a box" until the growth watch
+/// asked the surface too, as it does for every growing mesh. The probes fall back onto the
+/// ring: it meshes whole, a torus.
+#[test]
+fn a_thin_ring_is_not_taken_for_an_unbounded_tube() {
+    let text = "surface s = torus(1, 0.02);\n\
+                mesh m = s { step: 0.004; start: (1, 0, 0.02); }\n";
+    let dir = scratch("ring", "m.surf", text);
+    let run = common::cli::surfc(&["mesh", "m.surf", "-q", "--json", "-o", "m.obj"], &dir);
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let m = &json["meshes"][0];
+    assert_eq!(m["euler_characteristic"], 0, "{m}");
+    assert_eq!(m["components"], 1, "{m}");
+    assert_eq!(m["boundary_edges"], 0, "{m}");
+    assert_eq!(m["non_manifold_edges"], 0, "{m}");
+    // Area 4π²·1·0.02 ≈ 0.79 over triangles of side ≈ 0.004: about 115 k.
+    let triangles = m["triangles"].as_u64().unwrap();
+    assert!((90_000..200_000).contains(&triangles), "{triangles}");
+}
+
 /// The same plane in a box meshes: the box bounds it, and the default limit (what the box
 /// holds) leaves room for it.
 #[test]
