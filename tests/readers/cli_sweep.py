@@ -6,7 +6,8 @@ Writes N `.surf` files (DIR, default ./cli_sweep_SEED) of shapes whose topology,
 where known, volume follow from their construction: tori (`torus`, turned and moved), two
 spheres apart (`union`, meshed in a box: two components), superquadrics (x/a)^4 + … = 1
 (turned), dumbbells (two spheres and a cylinder joined by `smooth_union`), and tori and
-superquadrics at steps that make 250–600 k triangles (which `surfc mesh` cuts into slabs).
+superquadrics at steps that make 250–600 k triangles (which `surfc mesh` cuts into slabs),
+thin rings (tube 0.5–3 % of the radius) and thin plates (0.01–0.04 thick) at such steps.
 The step is drawn from a quarter of the smallest feature to four times it. Each file is
 meshed by `SURFC mesh FILE -o FILE.obj`, and the OBJ read back by trimesh (numpy, trimesh):
 watertight, consistently wound, the Euler characteristic and the number of components of the
@@ -36,8 +37,9 @@ def rand_axis():
 
 def fmt(v): return "(%r, %r, %r)" % tuple(float(x) for x in v)
 
-def torus():
-    R = rng.uniform(0.5, 1.5); r = R * math.exp(rng.uniform(math.log(0.04), math.log(0.45)))
+def torus(thin=False):
+    R = rng.uniform(0.5, 1.5)
+    r = R * math.exp(rng.uniform(math.log(0.005), math.log(0.03)) if thin else rng.uniform(math.log(0.04), math.log(0.45)))
     ax = rand_axis(); ang = rng.uniform(0, 6.28); t = [rng.uniform(-1, 1) for _ in range(3)]
     M = rot_matrix(ax, ang)
     u = np.linspace(0, 2 * math.pi, 400); v = np.linspace(0, 2 * math.pi, 200)
@@ -61,8 +63,12 @@ def two_spheres():
     return dict(name="two spheres %.3f %.3f gap %.3f" % (r1, r2, gap), src=src, start=None, feature=min(gap, 2 * min(r1, r2)),
                 euler=4, comps=2, volume=4 / 3 * math.pi * (r1 ** 3 + r2 ** 3), lo=lo, hi=hi, box=(lo - 0.3, hi + 0.3))
 
-def superquadric():
+def superquadric(thin=False):
     a = [math.exp(rng.uniform(math.log(0.05), math.log(1.0))) for _ in range(3)]
+    if thin:
+        # a plate: one semi-axis 0.005–0.02, the others 0.3–0.8
+        a = [rng.uniform(0.3, 0.8), rng.uniform(0.3, 0.8), rng.uniform(0.005, 0.02)]
+        rng.shuffle(a)
     ax = rand_axis(); ang = rng.uniform(0, 6.28); M = rot_matrix(ax, ang)
     d = np.random.default_rng(rng.randrange(1 << 30)).normal(size=(200000, 3)); d /= np.linalg.norm(d, axis=1)[:, None]
     t = np.sum((d / a) ** 4, axis=1) ** -0.25
@@ -82,14 +88,15 @@ def dumbbell():
     return dict(name="dumbbell a=%.3f d=%.3f neck=%.3f" % (a, d, rn), src=src, start=np.array([d + a, 0, 0]), feature=2 * rn,
                 euler=2, comps=1, volume=None, lo=np.array([-d - a, -a, -a]), hi=np.array([d + a, a, a]), box=None, loose=True)
 
-def fine(base):
+def fine(base, thin=False):
     def make():
-        sh = base()
+        sh = base(thin) if thin else base()
         sh["fine"] = True
         return sh
     return make
 
-fams = [torus, two_spheres, superquadric, dumbbell, fine(torus), fine(superquadric)]
+fams = [torus, two_spheres, superquadric, dumbbell, fine(torus), fine(superquadric),
+        fine(torus, thin=True), fine(superquadric, thin=True)]
 tally = dict(right=0, refused=0, wrong=0)
 for i in range(N):
     sh = fams[i % len(fams)]()
