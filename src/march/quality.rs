@@ -2547,13 +2547,7 @@ mod tests {
         for k in 0..40 {
             tri.push([id(k, k), id(k + 1, k), id(k + 50, k + 3)]);
         }
-        let mut case = Case {
-            pos: vec![DVec3::ZERO; nv],
-            normal: vec![DVec3::Z; nv],
-            tri: tri.clone(),
-            border: vec![false; nv],
-            h: vec![1.0; nv],
-        };
+        let mut case = Case::new(vec![DVec3::ZERO; nv], tri.clone());
         let stage = case.stage(0, None);
         let half = |e: usize| (tri[e / 3][e % 3], tri[e / 3][(e + 1) % 3]);
         let mut halves: std::collections::HashMap<(u32, u32), Vec<u32>> = Default::default();
@@ -2887,13 +2881,7 @@ mod tests {
                 .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
                 .collect();
             let nv = n as usize;
-            let mut case = Case {
-                pos: vec![DVec3::ZERO; nv],
-                normal: vec![DVec3::Z; nv],
-                tri: tri.clone(),
-                border: vec![false; nv],
-                h: vec![1.0; nv],
-            };
+            let mut case = Case::new(vec![DVec3::ZERO; nv], tri.clone());
             let stage = case.stage(0, None);
             let half = |e: usize| (tri[e / 3][e % 3], tri[e / 3][(e + 1) % 3]);
             let count = |a: u32, b: u32| (0..3 * tri.len()).filter(|&f| half(f) == (a, b)).count();
