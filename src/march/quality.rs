@@ -21,7 +21,9 @@
 //! triangles into four, a removal takes a vertex, three edges and two triangles where the
 //! link allows it: χ, boundary loops and components stay); every change keeps each
 //! touched triangle facing the side ∇f points to at its corners. Work is bounded (flip
-//! budgets, `rounds`, `max_inserted`, `ODT_ROUNDS`) and done in index order: the output is deterministic.
+//! budgets, `rounds`, `max_inserted`, `ODT_ROUNDS`) and done in index order; the passes that
+//! only read the mesh (the twins, the first round's queue, the shapes, the survey) run on
+//! rayon's pool with the result of one thread: the output is the same for any thread count.
 //! The verification (`verify.rs`) still checks the result: the stage does not have to be
 //! trusted for correctness, only for quality.
 
