@@ -251,6 +251,7 @@ fn a_sharp_polygon_corner_is_reported_in_a_warning() {
     let mut s = cylinder(1.0);
     let m = surfc::march::march_verified(
         s.as_mut(),
+        None,
         &input(step, poly, vec![]),
         &MarchSettings::default(),
         None,

@@ -215,15 +215,17 @@ fn generated_shapes_are_meshed_right_or_refused() {
         };
         let tolerance = settings.tolerance * step;
         let t = std::time::Instant::now();
+        // Fresh oracles for the quality stage's centroid round in blocks, and for the slabs.
+        let fork = || Some(sh.surface());
         let (result, pieces) = match pieces_above {
-            None => (march_verified(s.as_mut(), &input, &settings, None), 1),
-            Some(_) => {
-                let fork = || Some(sh.surface());
-                match pieces::march(s.as_mut(), Some(&fork), &input, &settings, None) {
-                    Ok(p) => (Ok(p.marched), p.pieces),
-                    Err(e) => (Err(e), 1),
-                }
-            }
+            None => (
+                march_verified(s.as_mut(), Some(&fork), &input, &settings, None),
+                1,
+            ),
+            Some(_) => match pieces::march(s.as_mut(), Some(&fork), &input, &settings, None) {
+                Ok(p) => (Ok(p.marched), p.pieces),
+                Err(e) => (Err(e), 1),
+            },
         };
         cut += usize::from(pieces > 1);
         let what = format!(
@@ -384,7 +386,8 @@ fn a_triangle_the_quality_stage_cannot_mend_refines_the_step_there() {
         },
         ..MarchSettings::default()
     };
-    let refined = march_verified(sh.surface().as_mut(), &input, &settings, None).expect("meshed");
+    let refined =
+        march_verified(sh.surface().as_mut(), None, &input, &settings, None).expect("meshed");
     let angle = right(&refined);
     println!(
         "{}: {} refinement(s), smallest angle {angle:.1}°, warnings {:?}",
@@ -398,7 +401,8 @@ fn a_triangle_the_quality_stage_cannot_mend_refines_the_step_there() {
         refine_rounds: 0,
         ..settings
     };
-    let coarse = march_verified(sh.surface().as_mut(), &input, &no_refining, None).expect("meshed");
+    let coarse =
+        march_verified(sh.surface().as_mut(), None, &input, &no_refining, None).expect("meshed");
     let angle = right(&coarse);
     println!(
         "without refinement: smallest angle {angle:.1}°, warnings {:?}",

@@ -19,7 +19,7 @@ fn thin_case(shape: &Shape, step: f64, min_angle_deg: f64) {
     let input = MarchInput::from_point(step, shape.start);
     let settings = MarchSettings::default();
     let tolerance = settings.tolerance * step;
-    let m = match march_verified(s.as_mut(), &input, &settings, None) {
+    let m = match march_verified(s.as_mut(), None, &input, &settings, None) {
         Ok(m) => m,
         Err(e) => panic!("{} at step {step}: {e}", shape.name),
     };
@@ -94,7 +94,7 @@ fn genus3_chord_error_within_a_tenth_of_the_step() {
     let mut s = genus3();
     let settings = MarchSettings::default();
     let input = MarchInput::from_point(0.3, DVec3::new(0.0, 3.0, 0.0));
-    let m = march_verified(s.as_mut(), &input, &settings, None).expect("genus 3 meshes");
+    let m = march_verified(s.as_mut(), None, &input, &settings, None).expect("genus 3 meshes");
     println!(
         "genus 3: {} triangles, chord {:.3e}",
         m.mesh.triangles.len(),
@@ -129,7 +129,8 @@ fn sphere_local_step_cost() {
             ..MarchInput::from_point(0.01, DVec3::new(1.0, 1.0, 1.0))
         };
         let t = std::time::Instant::now();
-        let m = march_verified(s.as_mut(), &input, &settings, None).expect("the sphere meshes");
+        let m =
+            march_verified(s.as_mut(), None, &input, &settings, None).expect("the sphere meshes");
         (t.elapsed().as_secs_f64(), m.mesh.triangles.len())
     };
     let (uniform, nu) = time(true);
@@ -141,7 +142,7 @@ fn sphere_local_step_cost() {
     // The verification's crossing check alone, on the same mesh.
     let mut s = sphere(2.0);
     let input = MarchInput::from_point(0.01, DVec3::new(1.0, 1.0, 1.0));
-    let m = march_verified(s.as_mut(), &input, &settings, None).expect("the sphere meshes");
+    let m = march_verified(s.as_mut(), None, &input, &settings, None).expect("the sphere meshes");
     let t = std::time::Instant::now();
     let pairs = surfc::mesh::check::intersecting_pairs(&m.mesh);
     println!(

@@ -14,8 +14,9 @@ use crate::compile::CompileError;
 use crate::diag::{Diagnostic, messages};
 use crate::mesh::Mesh;
 use crate::sema::program::MeshDef;
+use crate::surface::Fork;
 use crate::surface::Surface;
-use crate::survey::components::{Candidates, Fork, Marching, SearchSettings, surface_cells};
+use crate::survey::components::{Candidates, Marching, SearchSettings, surface_cells};
 use crate::survey::creases::{self, CreaseError, CreaseSettings, CreasedMesh};
 use crate::survey::spine::Creased;
 

@@ -491,7 +491,7 @@ fn mesh_block(
         .surface(&def.surface, def.step)
         .map_err(|e| build_failed(e.into()))?;
     // A fresh oracle of the surface for each march of the component search, built on the
-    // thread that marches (survey::components::Fork).
+    // thread that marches (surface::Fork).
     let engine = builder.engine();
     let fork = || {
         Builder::new(program, engine)
@@ -616,7 +616,8 @@ fn mesh_block(
     };
     // A large component from a start point is marched in pieces on the pool's threads
     // (`survey::pieces`); not a surface with creases, whose pieces are its smooth forms.
-    let fork: Option<&components::Fork<'_>> = if creased.is_none() { Some(&fork) } else { None };
+    let fork: Option<&crate::surface::Fork<'_>> =
+        if creased.is_none() { Some(&fork) } else { None };
     let pieced = pieces::march(&mut surface, fork, &input, &settings, Some(progress))
         .map_err(|e| failed(&e))?;
     let marched = pieced.marched;

@@ -40,7 +40,7 @@ pub use settings::MarchSettings;
 
 use crate::mesh::Mesh;
 use crate::solve::SurfacePointError;
-use crate::surface::Surface;
+use crate::surface::{Fork, Surface};
 use crate::survey::sizing::{Cap, Sizing};
 use verify::Flaw;
 
@@ -232,17 +232,21 @@ pub fn march(
     input: &MarchInput,
     settings: &MarchSettings,
 ) -> Result<Mesh, MarchError> {
-    march_verified(surface, input, settings, None).map(|m| m.mesh)
+    march_verified(surface, None, input, settings, None).map(|m| m.mesh)
 }
 
 /// Triangulates `surface` with the local step, verifies the mesh against the surface, and
 /// re-marches with the local step capped near the flaws until it passes or
 /// `MarchSettings::refine_rounds` are spent; then the first flaw is the error.
 ///
-/// `progress`, where given, receives the number of triangles made so far as the march goes
-/// (for a progress bar on another thread; relaxed stores, one per triangle).
+/// `fork`, where given, makes fresh oracles of `surface` for the quality stage's centroid
+/// round, whose blocks run on the rayon pool (`quality::Stage::centroid_round`); without it
+/// the blocks run one after another on `surface`. `progress`, where given, receives the
+/// number of triangles made so far as the march goes (for a progress bar on another thread;
+/// relaxed stores, one per triangle).
 pub fn march_verified(
     surface: &mut dyn Surface,
+    fork: Option<&Fork<'_>>,
     input: &MarchInput,
     settings: &MarchSettings,
     progress: Option<&std::sync::atomic::AtomicU64>,
@@ -313,7 +317,8 @@ pub fn march_verified(
                 continue;
             }
         }
-        let Leftovers { poor, held } = improve(surface, &mut marched, input, settings, tolerance);
+        let Leftovers { poor, held } =
+            improve(surface, fork, &mut marched, input, settings, tolerance);
         let verdict = verify::verify(surface, &marched, tolerance, step, &settings.surface_point);
         // A chord error above the tolerance may be a wrong mesh (a cap over a neck thinner
         // than the step): refined like one, and with the uniform step (which cannot refine)
@@ -426,6 +431,7 @@ struct Leftovers {
 /// `SURFC_TRACE`. Returns the triangles it left below its angle.
 fn improve(
     surface: &mut dyn Surface,
+    fork: Option<&Fork<'_>>,
     m: &mut marcher::Triangulation,
     input: &MarchInput,
     settings: &MarchSettings,
@@ -470,7 +476,7 @@ fn improve(
         m.fixed,
         input.bbox,
     )
-    .run(&limits, surface, &mut project);
+    .run(&limits, surface, fork, &mut project);
     if report.collapsed > 0 {
         m.drop_unused();
     }

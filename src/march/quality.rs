@@ -3,7 +3,7 @@
 //! off-centres where a triangle stays below the target angle, and the merge of a free corner
 //! into a neighbour where insertion cannot mend it (`Stage::remove_corner`); then the mean
 //! radius ratio (issue 10, M4) raised to `Limits::ratio`, cheapest first: a round of
-//! smoothing towards the rings' centroids (`Stage::smoothing_rounds`), and only where that
+//! smoothing towards the rings' centroids (`Stage::centroid_round`), and only where that
 //! falls short, valence flips and smoothing up the gradient of each fan's radius ratios
 //! (`Stage::polish`) around rounds towards the optimal Delaunay triangulation — all under a
 //! guard that cannot lower the smallest angle below min(target, what the rounds reached).
@@ -21,9 +21,11 @@
 //! triangles into four, a removal takes a vertex, three edges and two triangles where the
 //! link allows it: χ, boundary loops and components stay); every change keeps each
 //! touched triangle facing the side ∇f points to at its corners. Work is bounded (flip
-//! budgets, `rounds`, `max_inserted`, `ODT_ROUNDS`) and done in index order; the passes that
+//! budgets, `rounds`, `max_inserted`, `ODT_ROUNDS`) and done in index order, but for the
+//! centroid round, which moves blocks of consecutive vertices on rayon's pool (each block in
+//! index order, on its own oracle, the vertices between blocks after them); the passes that
 //! only read the mesh (the twins, the first round's queue, the shapes, the survey) run on
-//! rayon's pool with the result of one thread: the output is the same for any thread count.
+//! the pool with the result of one thread: the output is the same for any thread count.
 //! The verification (`verify.rs`) still checks the result: the stage does not have to be
 //! trusted for correctness, only for quality.
 
@@ -32,10 +34,11 @@ use std::sync::atomic::{AtomicBool, AtomicU32, Ordering::Relaxed};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::surface::Surface;
+use crate::surface::{Fork, Surface};
 
 /// Puts a point near the surface onto it: the surface point and its unit normal, or None.
-pub(super) type Project<'a> = dyn FnMut(&mut dyn Surface, DVec3) -> Option<(DVec3, DVec3)> + 'a;
+/// Shared by the centroid round's blocks on rayon's pool, each with its own oracle.
+pub(super) type Project<'a> = dyn Fn(&mut dyn Surface, DVec3) -> Option<(DVec3, DVec3)> + Sync + 'a;
 
 /// No half-edge across (a boundary edge, or an edge in more than two triangles).
 const NONE: u32 = u32::MAX;
@@ -112,7 +115,7 @@ const BAD_RINGS: usize = 2;
 /// it only acts where the rounds proper left a bad triangle.
 const SLIDE_ROUNDS: u32 = 2;
 
-/// Rounds of the ODT smoothing (`Stage::smoothing_rounds`) between the two passes of
+/// Rounds of the ODT smoothing (`Stage::odt_rounds`) between the two passes of
 /// `polish`: genus 3
 /// 0.9679, 0.9691, 0.9699 and 0.9699 of mean radius ratio after 1, 2, 4 and 6.
 const ODT_ROUNDS: u32 = 4;
@@ -132,25 +135,28 @@ const ODT_REACH: f64 = 0.025;
 /// gained 0.0001).
 const ODT_CHORD: f64 = 0.5;
 
+/// The whole-mesh scans that sum (`Stage::survey`, the end of each angle round) sum blocks
+/// of this many triangles on rayon's pool and add the blocks' sums in order: the mean's
+/// bits do not depend on the thread count.
+const SCAN_BLOCK: usize = 1 << 14;
+
+/// The centroid round takes the vertices in blocks of this many consecutive indices, each
+/// block on rayon's pool with its own oracle from the fork: first the vertices whose ring
+/// lies in their own block, in index order, then the others in index order in one thread.
+/// A block's moves read and write only its own vertices, so the blocks' order does not
+/// show, and the blocks are the same for any thread count. A mesh of at most this many
+/// vertices is one block, smoothed in index order as before the blocks (the gallery's
+/// meshes are the same bits). The march numbers its points as its front makes them, so
+/// a ring's indices are near each other (on the fine sphere half of all edges join indices
+/// at most 10 apart, 99 % at most 15 000): there 18 360 of 671 273 vertices wait for the
+/// second pass.
+const CENTROID_BLOCK: usize = 1 << 16;
+
 /// A smoothing target nearer than this fraction of the vertex's local step is not taken
 /// (nor projected): on the fine sphere three quarters of the moves were below it; skipping them
 /// (and visiting only the vertices around the last round's moves) cost the gallery's means
 /// at most 0.0004.
 const ODT_SETTLE: f64 = 0.01;
-
-/// Where a smoothing round (`Stage::smoothing_rounds`) moves a free vertex.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Placement {
-    /// The centroid of its ring in the tangent plane: the round tried first, towards the
-    /// aim. On the fine sphere it brings the mean radius ratio from 0.956 to 0.980, where
-    /// an ODT round brought it to 0.977, in about half the time (no circumcentres, and the
-    /// ring is gathered once for the target and the guard); it gained more than the ODT's
-    /// round on all but two of the gallery's meshes (docs/marcher.md).
-    Centroid,
-    /// The ODT position (`Stage::odt_target`): the rounds between `polish`'s two passes,
-    /// where the grading zones' triangles even out.
-    Odt,
-}
 
 /// What the stage aims at and how much it may do.
 #[derive(Clone, Copy, Debug)]
@@ -175,7 +181,7 @@ pub(super) struct Report {
     pub below_after: usize,
     pub flips: usize,
     pub moves: usize,
-    /// Moves of the smoothing rounds (`Stage::smoothing_rounds`).
+    /// Moves of the smoothing rounds (`Stage::centroid_round`, `Stage::odt_rounds`).
     pub smoothing_moves: usize,
     pub inserted: usize,
     /// Free corners removed (`Stage::remove_corner`).
@@ -187,8 +193,8 @@ pub(super) struct Report {
     pub rounds_seconds: f64,
     /// Seconds the smoothing rounds took.
     pub smoothing_seconds: f64,
-    /// Smoothing rounds towards the rings' centroids (`Placement::Centroid`), and towards
-    /// the ODT positions (`Placement::Odt`).
+    /// Smoothing rounds towards the rings' centroids (`Stage::centroid_round`), and towards
+    /// the ODT positions (`Stage::odt_rounds`).
     pub centroid_rounds: u32,
     pub odt_rounds: u32,
     /// The mean radius ratio after the rounds proper, and at the end.
@@ -356,7 +362,10 @@ impl<'a> Stage<'a> {
         // on the fine sphere. Each vertex writes only its own corners' twins (and, at a
         // non-manifold edge, marks both ends frozen, which commutes): the vertices are
         // taken in parallel, in blocks, and the result is the same for any thread count.
-        let twin: Vec<AtomicU32> = (0..corners).map(|_| AtomicU32::new(NONE)).collect();
+        let twin: Vec<AtomicU32> = (0..corners)
+            .into_par_iter()
+            .map(|_| AtomicU32::new(NONE))
+            .collect();
         let frozen: Vec<AtomicBool> = (0..n).map(|_| AtomicBool::new(false)).collect();
         let mut out = vec![NONE; n];
         out.par_chunks_mut(TWIN_BLOCK)
@@ -1623,12 +1632,16 @@ impl<'a> Stage<'a> {
     /// it is a corner of a triangle whose smallest angle's sine is below `sin`.
     fn shapes_and_corners_below(&self, sin: f64) -> (Vec<Shape>, Vec<bool>) {
         let shapes: Vec<Shape> = self.tri.par_iter().map(|&t| self.shape_of(t)).collect();
+        let mut below = Vec::new();
+        below.par_extend(
+            (0..shapes.len())
+                .into_par_iter()
+                .filter(|&t| shapes[t].sin < sin),
+        );
         let mut marked = vec![false; self.pos.len()];
-        for (t, shape) in self.tri.iter().zip(&shapes) {
-            if shape.sin < sin {
-                for &v in t {
-                    marked[v as usize] = true;
-                }
+        for t in below {
+            for v in self.tri[t] {
+                marked[v as usize] = true;
             }
         }
         (shapes, marked)
@@ -1670,6 +1683,7 @@ impl<'a> Stage<'a> {
         &mut self,
         limits: &Limits,
         surface: &mut dyn Surface,
+        fork: Option<&Fork<'_>>,
         project: &mut Project<'_>,
     ) -> Report {
         let sin_bad = limits.angle.sin();
@@ -1693,8 +1707,7 @@ impl<'a> Stage<'a> {
         let (aim, reach) = (limits.ratio, limits.ratio - ODT_REACH);
         if (reach..aim).contains(&report.ratio_after_rounds) {
             let smoothing_started = std::time::Instant::now();
-            let round = Placement::Centroid;
-            self.smoothing_rounds(round, 1, limits.tolerance, surface, project, &mut report);
+            self.centroid_round(limits.tolerance, surface, fork, project, &mut report);
             report.smoothing_seconds += smoothing_started.elapsed().as_secs_f64();
         }
         // The mean and the triangles below the target, in one scan.
@@ -1714,14 +1727,8 @@ impl<'a> Stage<'a> {
                 &mut report,
             );
             let smoothing_started = std::time::Instant::now();
-            let moved = self.smoothing_rounds(
-                Placement::Odt,
-                ODT_ROUNDS,
-                limits.tolerance,
-                surface,
-                project,
-                &mut report,
-            );
+            let moved =
+                self.odt_rounds(ODT_ROUNDS, limits.tolerance, surface, project, &mut report);
             report.smoothing_seconds += smoothing_started.elapsed().as_secs_f64();
             let dirty = self.grow(&moved);
             self.polish(dirty, limits, surface, project, &mut report);
@@ -1773,6 +1780,15 @@ impl<'a> Stage<'a> {
             let budget = 2 * self.tri.len() + 64;
             let (flips, _) = self.flip_all(queue, budget, surface, limits.tolerance);
             report.flips += flips;
+            // With no triangle below the target, the round has nothing to smooth, insert or
+            // remove, and the rounds end: the mean from one scan that keeps no shapes (on the
+            // fine sphere's first round the shapes and the scans after them took three times
+            // as long). Where triangles are below it, the scan is one more a round.
+            let (mean, below) = self.survey(sin_bad);
+            if below.is_empty() {
+                report.stop = "no triangle below the target";
+                return mean;
+            }
             // 2. Smoothing, in index order, of free vertices whose fan changed and that are
             // within `BAD_RINGS` rings of a triangle below the target: these rounds are for
             // the angle (the ratios are the smoothing rounds' and `polish`'s), and a bad triangle whose
@@ -1860,15 +1876,34 @@ impl<'a> Stage<'a> {
             }
             // What changed (moved or new vertices, triangles still bad) marks the
             // corners of the triangles around it for the next round.
+            // In blocks on the pool, summed and marked in block order (the same bits for any
+            // thread count, as `survey`).
+            let changed = |(t, shape): (&[u32; 3], &Shape)| {
+                shape.sin < sin_bad || t.iter().any(|&v| moved.get(v as usize).is_none_or(|&m| m))
+            };
+            let blocks: Vec<(f64, bool, Vec<u32>)> = self
+                .tri
+                .par_chunks(SCAN_BLOCK)
+                .zip(shapes.par_chunks(SCAN_BLOCK))
+                .enumerate()
+                .map(|(block, (tri, shapes))| {
+                    let sum = shapes.iter().map(|shape| shape.ratio).sum();
+                    let bad = shapes.iter().any(|shape| shape.sin < sin_bad);
+                    let changed = (tri.iter().zip(shapes).enumerate())
+                        .filter(|&(_, pair)| changed(pair))
+                        .map(|(i, _)| (block * SCAN_BLOCK + i) as u32)
+                        .collect();
+                    (sum, bad, changed)
+                })
+                .collect();
             let mut next_dirty = vec![false; self.pos.len()];
             let mut bad_left = false;
             ratio_sum = 0.0;
-            for (t, shape) in self.tri.iter().zip(&shapes) {
-                ratio_sum += shape.ratio;
-                let bad = shape.sin < sin_bad;
-                bad_left |= bad;
-                if bad || t.iter().any(|&v| moved.get(v as usize).is_none_or(|&m| m)) {
-                    for &v in t {
+            for (block_sum, block_bad, changed) in blocks {
+                ratio_sum += block_sum;
+                bad_left |= block_bad;
+                for t in changed {
+                    for v in self.tri[t as usize] {
                         next_dirty[v as usize] = true;
                     }
                 }
@@ -1986,32 +2021,26 @@ impl<'a> Stage<'a> {
         }
     }
 
-    /// `rounds` smoothing rounds over every free vertex in index order, moving each to the
-    /// place `placement` gives. After the first round only the vertices around the last
-    /// round's moves are visited, and they move only by more than `ODT_SETTLE` of their
-    /// local step. Returns which vertices moved.
+    /// `rounds` rounds of ODT smoothing over every free vertex in index order, moving each
+    /// to its ODT position (`odt_target`). After the first round only the vertices around
+    /// the last round's moves are visited, and they move only by more than `ODT_SETTLE` of
+    /// their local step. Returns which vertices moved.
     ///
     /// A move is kept under `polish`'s angle guard (the fan's smallest angle stays at or
     /// above the smaller of `KEEP_ANGLE` and what it was), with every triangle facing ∇f,
     /// and every edge that grows beyond the fan's longest with its midpoint within
     /// `ODT_CHORD` of the chord tolerance from the surface (the flips' test; the
     /// verification checks the centroids too, which lie up to a third further out)
-    /// (`Fan::guards_move`). The guard is what makes the centroid safe where the issue
-    /// warns of plain Laplace smoothing: no move lowers a fan's smallest angle below 34°
-    /// or below where it was.
-    fn smoothing_rounds(
+    /// (`Fan::guards_move`).
+    fn odt_rounds(
         &mut self,
-        placement: Placement,
         rounds: u32,
         tolerance: f64,
         surface: &mut dyn Surface,
         project: &mut Project<'_>,
         report: &mut Report,
     ) -> Vec<bool> {
-        let spacing = match placement {
-            Placement::Odt => self.spacing(),
-            Placement::Centroid => Vec::new(),
-        };
+        let spacing = self.spacing();
         let keep = KEEP_ANGLE.sin().powi(2);
         let mut moved = vec![false; self.pos.len()];
         let mut star = Vec::new();
@@ -2024,36 +2053,20 @@ impl<'a> Stage<'a> {
                 if !active[v as usize] || !self.free(v) {
                     continue;
                 }
-                let (p, n) = (self.p(v), self.normal[v as usize]);
+                let p = self.p(v);
+                // The target needs only the star: the fan is gathered only for the targets
+                // that are not too near to take.
+                if !self.star(v, &mut star) || !(3..=MAX_FAN).contains(&star.len()) {
+                    continue;
+                }
                 let settled = |target: DVec3| p.distance(target) < ODT_SETTLE * self.h[v as usize];
-                let target = match placement {
-                    // The centroid needs only the fan, gathered straight from the half-edges.
-                    Placement::Centroid => {
-                        if !fan.walk(self, v) {
-                            continue;
-                        }
-                        let target = fan.centroid(p, n);
-                        if settled(target) {
-                            continue;
-                        }
-                        target
-                    }
-                    // The ODT's target needs only the star: the fan is gathered only for
-                    // the targets that are not too near to take.
-                    Placement::Odt => {
-                        if !self.star(v, &mut star) || !(3..=MAX_FAN).contains(&star.len()) {
-                            continue;
-                        }
-                        let target = match self.odt_target(v, &star, &spacing) {
-                            Some(target) if !settled(target) => target,
-                            _ => continue,
-                        };
-                        if !fan.gather(self, &star) {
-                            continue;
-                        }
-                        target
-                    }
+                let target = match self.odt_target(v, &star, &spacing) {
+                    Some(target) if !settled(target) => target,
+                    _ => continue,
                 };
+                if !fan.gather(self, &star) {
+                    continue;
+                }
                 let Some((sp, sn)) = project(surface, target) else {
                     continue;
                 };
@@ -2064,10 +2077,7 @@ impl<'a> Stage<'a> {
                     report.smoothing_moves += 1;
                 }
             }
-            match placement {
-                Placement::Centroid => report.centroid_rounds += 1,
-                Placement::Odt => report.odt_rounds += 1,
-            }
+            report.odt_rounds += 1;
             if round + 1 < rounds {
                 active = self.grow(&moved_now);
             }
@@ -2075,15 +2085,108 @@ impl<'a> Stage<'a> {
         moved
     }
 
+    /// One round of smoothing towards the rings' centroids (`Fan::centroid`), the round
+    /// tried first towards the aim: every free vertex whose target is at least
+    /// `ODT_SETTLE` of its local step away moves there, projected, under the guard of
+    /// `odt_rounds` (`Fan::guards_move`). The guard is what makes the centroid safe where
+    /// the issue warns of plain Laplace smoothing: no move lowers a fan's smallest angle
+    /// below 34° or below where it was.
+    ///
+    /// Gauss–Seidel in index order within blocks of `CENTROID_BLOCK` vertices, the blocks on
+    /// rayon's pool each with an oracle from `fork` (without one, or where it gives none,
+    /// on `surface` one after another, which is the same for a surface without history);
+    /// the vertices whose ring reaches into another block wait and move after all blocks,
+    /// in index order, on `surface`. The result is the same for any thread count.
+    fn centroid_round(
+        &mut self,
+        tolerance: f64,
+        surface: &mut dyn Surface,
+        fork: Option<&Fork<'_>>,
+        project: &Project<'_>,
+        report: &mut Report,
+    ) {
+        let free = FreeVertices {
+            fixed: self.fixed,
+            border: self.border,
+            frozen: &self.frozen,
+            h: self.h,
+        };
+        let mesh = HalfEdges {
+            tri: self.tri,
+            twin: &self.twin,
+            out: &self.out,
+        };
+        let guard = CentroidGuard {
+            keep: KEEP_ANGLE.sin().powi(2),
+            chord: ODT_CHORD * tolerance,
+        };
+        let (pos, normal) = (&mut self.pos[..], &mut self.normal[..]);
+        let n = pos.len();
+        // A block's vertices (base, base + len), smoothed where their ring is in the block.
+        let smooth_block =
+            |base: usize, pos: &mut [DVec3], normal: &mut [DVec3], surface: &mut dyn Surface| {
+                let block = (base..base + pos.len()).map(|v| v as u32);
+                let mut moves = Moves::default();
+                moves.smooth(
+                    block, base, pos, normal, &mesh, &free, &guard, surface, project,
+                );
+                moves
+            };
+        let blocks: Vec<Moves> = match fork {
+            Some(fork) if n > CENTROID_BLOCK => pos
+                .par_chunks_mut(CENTROID_BLOCK)
+                .zip(normal.par_chunks_mut(CENTROID_BLOCK))
+                .enumerate()
+                .map(|(block, (pos, normal))| {
+                    let base = block * CENTROID_BLOCK;
+                    match fork() {
+                        Some(mut oracle) => smooth_block(base, pos, normal, &mut *oracle),
+                        // No oracle: the whole block waits for the second pass.
+                        None => Moves {
+                            waiting: (base..base + pos.len()).map(|v| v as u32).collect(),
+                            ..Moves::default()
+                        },
+                    }
+                })
+                .collect(),
+            _ => pos
+                .chunks_mut(CENTROID_BLOCK)
+                .zip(normal.chunks_mut(CENTROID_BLOCK))
+                .enumerate()
+                .map(|(block, (pos, normal))| {
+                    smooth_block(block * CENTROID_BLOCK, pos, normal, &mut *surface)
+                })
+                .collect(),
+        };
+        let mut waiting = Vec::new();
+        for block in blocks {
+            report.smoothing_moves += block.moves;
+            waiting.extend(block.waiting);
+        }
+        // The vertices between blocks, with every vertex in reach.
+        let mut rest = Moves::default();
+        rest.smooth(
+            waiting.into_iter(),
+            0,
+            pos,
+            normal,
+            &mesh,
+            &free,
+            &guard,
+            surface,
+            project,
+        );
+        debug_assert!(rest.waiting.is_empty());
+        report.smoothing_moves += rest.moves;
+        report.centroid_rounds += 1;
+    }
     /// The mean radius ratio of the triangles (1 for none), and the triangles whose
     /// smallest angle has a sine below `sin_bad`, in one scan.
     fn survey(&self, sin_bad: f64) -> (f64, Vec<u32>) {
-        // In blocks of a fixed size, in parallel, summed in block order: the same bits for
-        // any thread count.
-        const BLOCK: usize = 1 << 14;
+        // In blocks on the pool, summed in block order (`SCAN_BLOCK`).
         let blocks: Vec<(f64, Vec<u32>)> = self
             .tri
-            .par_chunks(BLOCK)
+            .par_chunks(SCAN_BLOCK)
             .enumerate()
             .map(|(block, tri)| {
                 let mut below = Vec::new();
@@ -2092,7 +2195,7 @@ impl<'a> Stage<'a> {
                     let (sin, ratio) = shape(self.corners(t));
                     sum += ratio;
                     if sin < sin_bad {
-                        below.push((block * BLOCK + i) as u32);
+                        below.push((block * SCAN_BLOCK + i) as u32);
                     }
                 }
                 (sum, below)
@@ -2228,37 +2331,47 @@ impl Fan {
         true
     }
 
-    /// `gather` of the closed star of v, walked here (as `Stage::star`) without listing it,
-    /// and without the ring's edge lengths: for `guards_move` and `centroid` only (`eval`
-    /// and `eval_grad` need `gather`). False where `Stage::star` is false or the star is
-    /// not of 3 to `MAX_FAN` triangles.
-    fn walk(&mut self, stage: &Stage<'_>, v: u32) -> bool {
-        let first = stage.out[v as usize];
+    /// `gather` of the closed star of v, walked here from the half-edges (as `Stage::star`)
+    /// without listing it, and without the ring's edge lengths: for `guards_move` and
+    /// `centroid` only (`eval` and `eval_grad` need `gather`). `pos` and `normal` are the
+    /// vertices from `base` on (a block of the centroid round, or all of them from 0).
+    fn walk(
+        &mut self,
+        mesh: &HalfEdges<'_>,
+        pos: &[DVec3],
+        normal: &[DVec3],
+        base: usize,
+        v: u32,
+    ) -> Walk {
+        let first = mesh.out[v as usize];
         if first == NONE {
-            return false;
+            return Walk::Open;
         }
         let (mut e, mut k) = (first, 0);
         loop {
             if k == MAX_FAN {
-                return false;
+                return Walk::Open;
             }
-            let b = stage.dst(e);
-            self.ring[k] = stage.p(b);
-            self.normal[k] = stage.normal[b as usize];
+            let b = mesh.dst(e) as usize;
+            let Some(i) = b.checked_sub(base).filter(|&i| i < pos.len()) else {
+                return Walk::Outside;
+            };
+            self.ring[k] = pos[i];
+            self.normal[k] = normal[i];
             k += 1;
-            e = stage.twin[prev(e) as usize];
+            e = mesh.twin[prev(e) as usize];
             if e == NONE {
-                return false;
+                return Walk::Open;
             }
             if e == first {
                 break;
             }
         }
         if k < 3 {
-            return false;
+            return Walk::Open;
         }
         self.close(k);
-        true
+        Walk::Closed
     }
 
     /// Sets the fan's size to k (ring points 0..k gathered) and completes it: the closing
@@ -2342,7 +2455,7 @@ impl Fan {
     }
 
     /// The centroid of the ring, moved into the tangent plane at p (normal n): where the
-    /// first smoothing round puts the fan's centre (`Placement::Centroid`).
+    /// first smoothing round puts the fan's centre (`Stage::centroid_round`).
     fn centroid(&self, p: DVec3, n: DVec3) -> DVec3 {
         let d = self.ring[..self.k].iter().sum::<DVec3>() / self.k as f64 - p;
         p + d - d.dot(n) * n
@@ -2439,6 +2552,109 @@ impl Fan {
             reach
         };
         Some([1.0, 0.25, 0.0625].map(|f| p + dir * (f * t)))
+    }
+}
+
+/// What `Fan::walk` found around a vertex.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Walk {
+    /// A closed fan of 3 to `MAX_FAN` triangles, gathered.
+    Closed,
+    /// An open fan (a boundary), or one of more than `MAX_FAN` triangles: not smoothed.
+    Open,
+    /// A ring vertex outside the vertices given (another block of the centroid round).
+    Outside,
+}
+
+/// The half-edges of the stage, borrowed apart from the positions (which the centroid
+/// round's blocks write in parallel).
+struct HalfEdges<'s> {
+    tri: &'s [[u32; 3]],
+    twin: &'s [u32],
+    out: &'s [u32],
+}
+
+impl HalfEdges<'_> {
+    fn dst(&self, e: u32) -> u32 {
+        let e = next(e);
+        self.tri[(e / 3) as usize][(e % 3) as usize]
+    }
+}
+
+/// Which vertices may move, and their local steps, borrowed apart from the positions
+/// (`Stage::free`).
+struct FreeVertices<'s> {
+    fixed: usize,
+    border: &'s [bool],
+    frozen: &'s [bool],
+    h: &'s [f64],
+}
+
+impl FreeVertices<'_> {
+    fn free(&self, v: u32) -> bool {
+        (v as usize) >= self.fixed && !self.border[v as usize] && !self.frozen[v as usize]
+    }
+}
+
+/// The centroid round's guard (`Fan::guards_move`): the smallest angle's sin² it keeps,
+/// and the distance from the surface a lengthened edge's midpoint may have.
+struct CentroidGuard {
+    keep: f64,
+    chord: f64,
+}
+
+/// What one pass of the centroid round did: its moves, and the vertices it left for the
+/// pass after the blocks (their ring reaches beyond the block).
+#[derive(Default)]
+struct Moves {
+    moves: usize,
+    waiting: Vec<u32>,
+}
+
+impl Moves {
+    /// Moves each free vertex of `vertices` (in that order) to its ring's centroid,
+    /// projected, where the guard allows; `pos` and `normal` hold the vertices from `base`
+    /// on, and a vertex whose ring leaves them waits.
+    #[allow(clippy::too_many_arguments)]
+    fn smooth(
+        &mut self,
+        vertices: impl Iterator<Item = u32>,
+        base: usize,
+        pos: &mut [DVec3],
+        normal: &mut [DVec3],
+        mesh: &HalfEdges<'_>,
+        free: &FreeVertices<'_>,
+        guard: &CentroidGuard,
+        surface: &mut dyn Surface,
+        project: &Project<'_>,
+    ) {
+        let mut fan = Fan::empty();
+        for v in vertices {
+            if !free.free(v) {
+                continue;
+            }
+            match fan.walk(mesh, pos, normal, base, v) {
+                Walk::Closed => {}
+                Walk::Open => continue,
+                Walk::Outside => {
+                    self.waiting.push(v);
+                    continue;
+                }
+            }
+            let at = v as usize - base;
+            let (p, n) = (pos[at], normal[at]);
+            let target = fan.centroid(p, n);
+            if p.distance(target) < ODT_SETTLE * free.h[v as usize] {
+                continue;
+            }
+            let Some((sp, sn)) = project(surface, target) else {
+                continue;
+            };
+            if fan.guards_move(p, sp, sn, guard.keep, surface, guard.chord) {
+                (pos[at], normal[at]) = (sp, sn);
+                self.moves += 1;
+            }
+        }
     }
 }
 
@@ -2591,6 +2807,81 @@ mod tests {
         assert!(touching > 0);
     }
 
+    /// The centroid round in blocks (`CENTROID_BLOCK` vertices) on a jittered grid of two
+    /// blocks: the same positions on a pool of one thread and of two, and without a fork
+    /// (the plane has no history); the moves counted are the positions that changed; and
+    /// the vertices whose ring reaches into the other block, which wait for the pass after
+    /// the blocks, moved as the others did.
+    #[test]
+    fn the_centroid_round_in_blocks_is_the_same_on_any_pool() {
+        let side = 300u32;
+        let nv = (side * side) as usize;
+        assert!(nv > CENTROID_BLOCK && nv <= 2 * CENTROID_BLOCK);
+        let jitter = |k: u32| f64::from(k % 11) / 11.0 - 0.5;
+        let pos: Vec<DVec3> = (0..side * side)
+            .map(|v| {
+                let (i, j) = (v / side, v % side);
+                DVec3::new(
+                    f64::from(i) + 0.2 * jitter(7 * i + 13 * j),
+                    f64::from(j) + 0.2 * jitter(5 * i + 3 * j + 1),
+                    0.0,
+                )
+            })
+            .collect();
+        let mut tri = Vec::new();
+        for i in 0..side - 1 {
+            for j in 0..side - 1 {
+                let (a, b) = (i * side + j, (i + 1) * side + j);
+                tri.push([a, b, b + 1]);
+                tri.push([a, b + 1, a + 1]);
+            }
+        }
+        let fork = || Some(Box::new(Plane) as Box<dyn Surface>);
+        let round = |threads: usize, fork: Option<&Fork<'_>>| {
+            let mut case = Case::new(pos.clone(), tri.clone());
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a pool");
+            let mut report = Report::default();
+            pool.install(|| {
+                let mut stage = case.stage(0, None);
+                stage.centroid_round(1.0, &mut Plane, fork, &onto_plane, &mut report);
+            });
+            (case.pos, report.smoothing_moves)
+        };
+        let (smoothed, moves) = round(1, Some(&fork));
+        assert_eq!(round(2, Some(&fork)), (smoothed.clone(), moves));
+        assert_eq!(round(2, None), (smoothed.clone(), moves));
+        let moved = |v: u32| smoothed[v as usize] != pos[v as usize];
+        assert_eq!((0..side * side).filter(|&v| moved(v)).count(), moves);
+        // The grid's inner vertices with a neighbour (±1, ±side, ±(side + 1)) in the other
+        // block.
+        let block = |v: u32| v as usize / CENTROID_BLOCK;
+        let inner =
+            |v: u32| (1..side - 1).contains(&(v / side)) && (1..side - 1).contains(&(v % side));
+        let between: Vec<u32> = (0..side * side)
+            .filter(|&v| inner(v))
+            .filter(|&v| {
+                [v - 1, v + 1, v - side, v + side, v - side - 1, v + side + 1]
+                    .iter()
+                    .any(|&w| block(w) != block(v))
+            })
+            .collect();
+        let inner_count = (0..side * side).filter(|&v| inner(v)).count();
+        assert!(between.len() > side as usize);
+        // Nearly every inner vertex moves (a few targets are nearer than `ODT_SETTLE`), and
+        // so do those between the blocks.
+        let share = |moved: usize, of: usize| moved as f64 / of as f64;
+        assert!(share(moves, inner_count) > 0.9, "{moves} of {inner_count}");
+        let between_moved = between.iter().filter(|&&v| moved(v)).count();
+        assert!(
+            share(between_moved, between.len()) > 0.9,
+            "{between_moved} of {}",
+            between.len()
+        );
+    }
+
     /// The plane z = 0 with ∇f = +z.
     struct Plane;
 
@@ -2646,7 +2937,7 @@ mod tests {
                 ratio,
             };
             self.stage(fixed, bbox)
-                .run(&limits, &mut Plane, &mut onto_plane)
+                .run(&limits, &mut Plane, None, &mut onto_plane)
         }
 
         fn mean_ratio(&self) -> f64 {

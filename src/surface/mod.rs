@@ -53,6 +53,13 @@ pub trait Surface {
     }
 }
 
+/// Makes a fresh oracle of a surface, built on the thread that calls it (an oracle is not
+/// shared between threads): one per march of the component search or of a piece on the rayon
+/// pool, one per block of the quality stage's centroid round. A fresh oracle evaluates as if
+/// nothing had been evaluated before (the warm start of `dist`), so what is computed on it
+/// does not depend on which thread ran what first. None if it cannot be built.
+pub type Fork<'a> = dyn Fn() -> Option<Box<dyn Surface>> + Sync + 'a;
+
 impl<S: Surface + ?Sized> Surface for Box<S> {
     fn value(&mut self, p: DVec3) -> f64 {
         (**self).value(p)

@@ -44,7 +44,7 @@ use rayon::prelude::*;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
 use crate::solve::{SurfacePoint, surface_point};
-use crate::surface::Surface;
+use crate::surface::{Fork, Surface};
 
 use super::ahead;
 use super::jump::gradient_jump;
@@ -524,10 +524,6 @@ pub fn mesh_components(
     )
 }
 
-/// Makes a fresh oracle of the surface being searched, one per march on the rayon pool's
-/// threads (an oracle is not shared between threads); None if it cannot be built.
-pub type Fork<'a> = dyn Fn() -> Option<Box<dyn Surface>> + Sync + 'a;
-
 /// [`mesh_components`] with the components marched on the rayon pool (`survey::ahead`):
 /// each march on a fresh oracle from `fork`, so a march never depends on what the oracle
 /// evaluated before (the warm start of `dist`), and the components accepted in seed order
@@ -894,7 +890,7 @@ impl Search<'_> {
             return Ok(());
         }
         let input = self.march_input(seed.sp.point, self.limit.max(1));
-        let marched = march::march_verified(self.surface, &input, self.march_settings, None)
+        let marched = march::march_verified(self.surface, None, &input, self.march_settings, None)
             .map_err(|source| SearchError::March {
                 seed: seed.sp.point,
                 source,
@@ -1063,12 +1059,17 @@ impl Search<'_> {
             _ => {
                 let mut surface = (q.fork)().ok_or(SearchError::Fork)?;
                 let input = self.march_input(seed.sp.point, limit);
-                march::march_verified(&mut *surface, &input, self.march_settings, None).map_err(
-                    |source| SearchError::March {
-                        seed: seed.sp.point,
-                        source,
-                    },
-                )?
+                march::march_verified(
+                    &mut *surface,
+                    Some(q.fork),
+                    &input,
+                    self.march_settings,
+                    None,
+                )
+                .map_err(|source| SearchError::March {
+                    seed: seed.sp.point,
+                    source,
+                })?
             }
         };
         self.accept(seed.sp.point, marched);
@@ -1109,7 +1110,13 @@ impl Search<'_> {
             .par_iter()
             .map(|input| {
                 let mut surface = fork()?;
-                Some(march::march_verified(&mut *surface, input, settings, None))
+                Some(march::march_verified(
+                    &mut *surface,
+                    Some(fork),
+                    input,
+                    settings,
+                    None,
+                ))
             })
             .collect()
     }

@@ -164,7 +164,7 @@ struct Traced {
 pub fn mesh_creased(
     creased: &mut Creased,
     whole: &mut dyn Surface,
-    fork: Option<&components::Fork<'_>>,
+    fork: Option<&crate::surface::Fork<'_>>,
     marching: Marching,
     bbox: (DVec3, DVec3),
     march_settings: &MarchSettings,
@@ -286,8 +286,9 @@ pub fn mesh_creased(
             tolerance: marching.tolerance,
             uniform: marching.uniform,
         };
-        let marched = march::march_verified(&mut t.c.piece(form), &input, &piece_settings, None)
-            .map_err(|source| CreaseError::March { at, source })?;
+        let marched =
+            march::march_verified(&mut t.c.piece(form), None, &input, &piece_settings, None)
+                .map_err(|source| CreaseError::March { at, source })?;
         t.check_piece(form, &marched.mesh)?;
         out.max_chord_error = out.max_chord_error.max(marched.max_chord_error);
         out.warnings.extend(marched.warnings);

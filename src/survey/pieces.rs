@@ -39,7 +39,6 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::components::Fork;
 use super::creases::merge;
 use super::sizing::{Sizing, SizingSettings};
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Marched, Start};
@@ -52,6 +51,7 @@ use crate::solve::SurfacePoint;
 use crate::solve::curve::{self, CurveError};
 use crate::solve::surfacepoint::tangent_frame;
 use crate::solve::tolerance::CurveTolerance;
+use crate::surface::Fork;
 use crate::surface::{NativeSurface, Surface, ValueGrad};
 
 /// The coarse survey marches at this many steps.
@@ -198,7 +198,7 @@ pub fn march(
             }
         }
     }
-    let marched = march::march_verified(surface, input, settings, progress)?;
+    let marched = march::march_verified(surface, fork, input, settings, progress)?;
     Ok(Pieced {
         marched,
         pieces: 1,
@@ -238,14 +238,14 @@ fn plan(
     // At `COARSE` steps, and where the surface has features too small for that (the survey
     // fails), at half of it.
     let (coarse, coarse_step) =
-        match march::march_verified(&mut s, &coarse_input, &coarse_settings, None) {
+        match march::march_verified(&mut s, None, &coarse_input, &coarse_settings, None) {
             Ok(m) => (m.mesh, coarse_input.step),
             Err(_) => {
                 let finer = MarchInput {
                     step: 0.5 * COARSE * step,
                     ..coarse_input
                 };
-                let m = march::march_verified(&mut s, &finer, &coarse_settings, None)
+                let m = march::march_verified(&mut s, None, &finer, &coarse_settings, None)
                     .map_err(NoCut::Coarse)?;
                 (m.mesh, finer.step)
             }
@@ -526,7 +526,7 @@ fn march_pieces(
         .enumerate()
         .map(|(piece, inp)| {
             let mut s = fork().ok_or(NoCut::Fork)?;
-            march::march_verified(&mut s, inp, settings, None)
+            march::march_verified(&mut s, Some(fork), inp, settings, None)
                 .map_err(|source| NoCut::Piece { piece, source })
         })
         .collect();
