@@ -233,6 +233,22 @@ pub(super) fn min_sin(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     }
 }
 
+/// The sum of the shapes' radius ratios, in order.
+fn ratio_sum_of(shapes: &[Shape]) -> f64 {
+    shapes.iter().map(|shape| shape.ratio).sum()
+}
+
+/// The mean radius ratio of the shapes (1 for none), summed in blocks of `SCAN_BLOCK` on
+/// rayon's pool and the blocks' sums added in order, as the scan at the end of an angle round
+/// sums them: the same bits for any thread count.
+fn mean_ratio(shapes: &[Shape]) -> f64 {
+    if shapes.is_empty() {
+        return 1.0;
+    }
+    let blocks: Vec<f64> = shapes.par_chunks(SCAN_BLOCK).map(ratio_sum_of).collect();
+    blocks.iter().sum::<f64>() / shapes.len() as f64
+}
+
 /// The radius ratio 2·r_in/r_circ = 16·A² / (abc·(a+b+c)): 1 for an equilateral triangle,
 /// 0 for a degenerate one.
 pub(super) fn radius_ratio(a: DVec3, b: DVec3, c: DVec3) -> f64 {
@@ -1780,15 +1796,6 @@ impl<'a> Stage<'a> {
             let budget = 2 * self.tri.len() + 64;
             let (flips, _) = self.flip_all(queue, budget, surface, limits.tolerance);
             report.flips += flips;
-            // With no triangle below the target, the round has nothing to smooth, insert or
-            // remove, and the rounds end: the mean from one scan that keeps no shapes (on the
-            // fine sphere's first round the shapes and the scans after them took three times
-            // as long). Where triangles are below it, the scan is one more a round.
-            let (mean, below) = self.survey(sin_bad);
-            if below.is_empty() {
-                report.stop = "no triangle below the target";
-                return mean;
-            }
             // 2. Smoothing, in index order, of free vertices whose fan changed and that are
             // within `BAD_RINGS` rings of a triangle below the target: these rounds are for
             // the angle (the ratios are the smoothing rounds' and `polish`'s), and a bad triangle whose
@@ -1801,6 +1808,15 @@ impl<'a> Stage<'a> {
             // smoothing (only the fans of moved vertices change) for the scans after it and
             // for the mean radius ratio the rounds end with.
             let (mut shapes, bad_corner) = self.shapes_and_corners_below(sin_bad);
+            // With no triangle below the target, the round has nothing to smooth, insert or
+            // remove, and the rounds end here, with the mean of the shapes summed as the scan
+            // at the end of a round sums them (on the fine sphere's first round that scan,
+            // the rings grown around nothing and the smoothing's pass over every vertex were
+            // a third of the round).
+            if !bad_corner.contains(&true) {
+                report.stop = "no triangle below the target";
+                return mean_ratio(&shapes);
+            }
             let mut smoothed = bad_corner.clone();
             for _ in 0..BAD_RINGS {
                 smoothed = self.grow(&smoothed);
@@ -1887,7 +1903,7 @@ impl<'a> Stage<'a> {
                 .zip(shapes.par_chunks(SCAN_BLOCK))
                 .enumerate()
                 .map(|(block, (tri, shapes))| {
-                    let sum = shapes.iter().map(|shape| shape.ratio).sum();
+                    let sum = ratio_sum_of(shapes);
                     let bad = shapes.iter().any(|shape| shape.sin < sin_bad);
                     let changed = (tri.iter().zip(shapes).enumerate())
                         .filter(|&(_, pair)| changed(pair))
