@@ -143,7 +143,8 @@ fn quality_share(c: &mut Criterion, start: DVec3) {
     };
     // The share, from interleaved pairs of runs (after a warm-up pair) so that a load from
     // elsewhere on the machine falls on both alike: criterion's samples of one and then of
-    // the other cannot separate the stage's 0.6 s from this machine's swings of a second.
+    // the other cannot separate the stage's tenths of a second from this machine's swings
+    // of a second.
     let time = |settings: &MarchSettings| {
         let t = Instant::now();
         one_piece(settings);
