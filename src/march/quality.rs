@@ -2121,31 +2121,25 @@ impl<'a> Stage<'a> {
         project: &Project<'_>,
         report: &mut Report,
     ) {
-        let free = FreeVertices {
-            fixed: self.fixed,
-            border: self.border,
-            frozen: &self.frozen,
-            h: self.h,
-        };
-        let mesh = HalfEdges {
-            tri: self.tri,
-            twin: &self.twin,
-            out: &self.out,
-        };
         let guard = CentroidGuard {
             keep: KEEP_ANGLE.sin().powi(2),
             chord: ODT_CHORD * tolerance,
         };
-        let (pos, normal) = (&mut self.pos[..], &mut self.normal[..]);
+        // The positions and normals are taken out of the stage for the round, so that the
+        // blocks write their slices of them while every block reads the rest of the stage
+        // (the half-edges, which vertices may move, their steps); put back at the end.
+        let (mut pos, mut normal) = (
+            std::mem::take(&mut *self.pos),
+            std::mem::take(&mut *self.normal),
+        );
+        let stage = &*self;
         let n = pos.len();
         // A block's vertices (base, base + len), smoothed where their ring is in the block.
         let smooth_block =
             |base: usize, pos: &mut [DVec3], normal: &mut [DVec3], surface: &mut dyn Surface| {
                 let block = (base..base + pos.len()).map(|v| v as u32);
                 let mut moves = Moves::default();
-                moves.smooth(
-                    block, base, pos, normal, &mesh, &free, &guard, surface, project,
-                );
+                moves.smooth(block, base, pos, normal, stage, &guard, surface, project);
                 moves
             };
         let blocks: Vec<Moves> = match fork {
@@ -2184,15 +2178,15 @@ impl<'a> Stage<'a> {
         rest.smooth(
             waiting.into_iter(),
             0,
-            pos,
-            normal,
-            &mesh,
-            &free,
+            &mut pos,
+            &mut normal,
+            stage,
             &guard,
             surface,
             project,
         );
         debug_assert!(rest.waiting.is_empty());
+        (*self.pos, *self.normal) = (pos, normal);
         report.smoothing_moves += rest.moves;
         report.centroid_rounds += 1;
     }
@@ -2350,16 +2344,17 @@ impl Fan {
     /// `gather` of the closed star of v, walked here from the half-edges (as `Stage::star`)
     /// without listing it, and without the ring's edge lengths: for `guards_move` and
     /// `centroid` only (`eval` and `eval_grad` need `gather`). `pos` and `normal` are the
-    /// vertices from `base` on (a block of the centroid round, or all of them from 0).
+    /// vertices from `base` on (a block of the centroid round, or all of them from 0); the
+    /// stage's own are taken out of it for the round.
     fn walk(
         &mut self,
-        mesh: &HalfEdges<'_>,
+        stage: &Stage<'_>,
         pos: &[DVec3],
         normal: &[DVec3],
         base: usize,
         v: u32,
     ) -> Walk {
-        let first = mesh.out[v as usize];
+        let first = stage.out[v as usize];
         if first == NONE {
             return Walk::Open;
         }
@@ -2368,14 +2363,14 @@ impl Fan {
             if k == MAX_FAN {
                 return Walk::Open;
             }
-            let b = mesh.dst(e) as usize;
+            let b = stage.dst(e) as usize;
             let Some(i) = b.checked_sub(base).filter(|&i| i < pos.len()) else {
                 return Walk::Outside;
             };
             self.ring[k] = pos[i];
             self.normal[k] = normal[i];
             k += 1;
-            e = mesh.twin[prev(e) as usize];
+            e = stage.twin[prev(e) as usize];
             if e == NONE {
                 return Walk::Open;
             }
@@ -2582,36 +2577,6 @@ enum Walk {
     Outside,
 }
 
-/// The half-edges of the stage, borrowed apart from the positions (which the centroid
-/// round's blocks write in parallel).
-struct HalfEdges<'s> {
-    tri: &'s [[u32; 3]],
-    twin: &'s [u32],
-    out: &'s [u32],
-}
-
-impl HalfEdges<'_> {
-    fn dst(&self, e: u32) -> u32 {
-        let e = next(e);
-        self.tri[(e / 3) as usize][(e % 3) as usize]
-    }
-}
-
-/// Which vertices may move, and their local steps, borrowed apart from the positions
-/// (`Stage::free`).
-struct FreeVertices<'s> {
-    fixed: usize,
-    border: &'s [bool],
-    frozen: &'s [bool],
-    h: &'s [f64],
-}
-
-impl FreeVertices<'_> {
-    fn free(&self, v: u32) -> bool {
-        (v as usize) >= self.fixed && !self.border[v as usize] && !self.frozen[v as usize]
-    }
-}
-
 /// The centroid round's guard (`Fan::guards_move`): the smallest angle's sin² it keeps,
 /// and the distance from the surface a lengthened edge's midpoint may have.
 struct CentroidGuard {
@@ -2638,18 +2603,17 @@ impl Moves {
         base: usize,
         pos: &mut [DVec3],
         normal: &mut [DVec3],
-        mesh: &HalfEdges<'_>,
-        free: &FreeVertices<'_>,
+        stage: &Stage<'_>,
         guard: &CentroidGuard,
         surface: &mut dyn Surface,
         project: &Project<'_>,
     ) {
         let mut fan = Fan::empty();
         for v in vertices {
-            if !free.free(v) {
+            if !stage.free(v) {
                 continue;
             }
-            match fan.walk(mesh, pos, normal, base, v) {
+            match fan.walk(stage, pos, normal, base, v) {
                 Walk::Closed => {}
                 Walk::Open => continue,
                 Walk::Outside => {
@@ -2660,7 +2624,7 @@ impl Moves {
             let at = v as usize - base;
             let (p, n) = (pos[at], normal[at]);
             let target = fan.centroid(p, n);
-            if p.distance(target) < ODT_SETTLE * free.h[v as usize] {
+            if p.distance(target) < ODT_SETTLE * stage.h[v as usize] {
                 continue;
             }
             let Some((sp, sn)) = project(surface, target) else {
