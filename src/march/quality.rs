@@ -2843,14 +2843,7 @@ mod tests {
                 )
             })
             .collect();
-        let mut tri = Vec::new();
-        for i in 0..side - 1 {
-            for j in 0..side - 1 {
-                let (a, b) = (i * side + j, (i + 1) * side + j);
-                tri.push([a, b, b + 1]);
-                tri.push([a, b + 1, a + 1]);
-            }
-        }
+        let tri = grid_triangles(side);
         let fork = || Some(Box::new(Plane) as Box<dyn Surface>);
         let round = |threads: usize, fork: Option<&Fork<'_>>| {
             let mut case = Case::new(pos.clone(), tri.clone());
@@ -2920,14 +2913,7 @@ mod tests {
                 DVec3::new(i + jitter(), j + jitter(), 0.0)
             })
             .collect();
-        let mut tri = Vec::new();
-        for i in 0..side - 1 {
-            for j in 0..side - 1 {
-                let (a, b) = (i * side + j, (i + 1) * side + j);
-                tri.push([a, b, b + 1]);
-                tri.push([a, b + 1, a + 1]);
-            }
-        }
+        let tri = grid_triangles(side);
         let all = vec![true; pos.len()];
         let flipped = |screened: bool| {
             let mut case = Case::new(pos.clone(), tri.clone());
@@ -2954,6 +2940,20 @@ mod tests {
             queued < every_queued / 2,
             "{queued} of {every_queued} edges"
         );
+    }
+
+    /// The triangles of a side × side grid of vertices numbered row by row (vertex
+    /// (i, j) is i·side + j), two a square, counter-clockwise seen from +z.
+    fn grid_triangles(side: u32) -> Vec<[u32; 3]> {
+        let mut tri = Vec::new();
+        for i in 0..side - 1 {
+            for j in 0..side - 1 {
+                let (a, b) = (i * side + j, (i + 1) * side + j);
+                tri.push([a, b, b + 1]);
+                tri.push([a, b + 1, a + 1]);
+            }
+        }
+        tri
     }
 
     /// The plane z = 0 with ∇f = +z.
