@@ -1683,19 +1683,20 @@ impl<'a> Stage<'a> {
         grown
     }
 
-    /// The first round's queue for `flip_all`: with every vertex marked `dirty`, the
-    /// interior edges with an obtuse angle opposite them in a triangle of theirs, and the
-    /// triangles' obtuse corners (`obtuse_corners`) to screen the edges the flips push.
-    /// An edge with neither opposite angle obtuse is not flipped (`try_flip_as`'s first
-    /// test on the angles, on the same dot products), and on a marched mesh that is nearly
-    /// every edge: the fine sphere's queue is 7 451 edges instead of two million,
-    /// built in two passes on the pool (screening every edge in the flips' loop, in one
-    /// thread, was most of the first round's flips; through each edge's own four corners,
-    /// before that, 0.1 s for 6 flips). Elsewhere `dirty_edges`, unscreened. An edge
-    /// screened out here that a flip changes is one of the flipped quad's outer edges,
-    /// which the flip pushes: nothing is missed.
+    /// The queue for `flip_all`: the interior edges with an end marked in `dirty`. Where at
+    /// least half the vertices are marked (the first round marks all), only those with an
+    /// obtuse angle opposite them in a triangle of theirs, and the triangles' obtuse
+    /// corners (`obtuse_corners`) to screen the edges the flips push: an edge with neither
+    /// opposite angle obtuse is not flipped (`try_flip_as`'s first test, on the same dot
+    /// products), and an edge screened out here that a flip changes is one of the flipped
+    /// quad's outer edges, which the flip pushes. On a marched mesh that is nearly every
+    /// edge: the fine sphere's first queue is 7 451 edges instead of two million, built in
+    /// two passes on the pool (screening every edge in the flips' loop, in one thread, was
+    /// most of the first round's flips). Fewer marked vertices: `dirty_edges`, unscreened,
+    /// without a pass over every triangle.
     fn delaunay_queue(&self, dirty: &[bool]) -> (Vec<u32>, Option<Vec<u8>>) {
-        if !dirty.iter().all(|&d| d) {
+        let marked = dirty.iter().filter(|&&d| d).count();
+        if 2 * marked < dirty.len() {
             return (self.dirty_edges(dirty), None);
         }
         let obtuse: Vec<u8> = (0..self.tri.len() as u32)
@@ -1706,7 +1707,10 @@ impl<'a> Stage<'a> {
         // In parallel, in order: the queue is the same for any thread count.
         queue.par_extend((0..3 * self.tri.len() as u32).into_par_iter().filter(|&e| {
             let f = self.twin[e as usize];
-            f != NONE && e < f && obtuse_opposite(&obtuse, e, f)
+            f != NONE
+                && e < f
+                && (dirty[self.org(e) as usize] || dirty[self.dst(e) as usize])
+                && obtuse_opposite(&obtuse, e, f)
         }));
         (queue, Some(obtuse))
     }
