@@ -53,27 +53,41 @@ fn rank(n: usize, q: f64) -> usize {
 /// [`triangle_angles`]: the corner with the largest cosine, and one `acos` instead of three
 /// (acos falls as its argument rises).
 pub fn smallest_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    degrees(smallest_angle_cosine(a, b, c))
+}
+
+/// The cosine of a triangle's smallest angle (its largest corner cosine), 1 where a corner
+/// is degenerate: `smallest_angle` is its arccosine in degrees (acos(1) = +0).
+fn smallest_angle_cosine(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let cosine = |p: DVec3, q: DVec3, r: DVec3| {
         let (u, v) = (q - p, r - p);
         let d = u.length() * v.length();
         (d > 0.0).then(|| (u.dot(v) / d).clamp(-1.0, 1.0))
     };
     match (cosine(a, b, c), cosine(b, c, a), cosine(c, a, b)) {
-        (Some(x), Some(y), Some(z)) => x.max(y).max(z).acos().to_degrees(),
+        (Some(x), Some(y), Some(z)) => x.max(y).max(z),
         // A degenerate corner counts as 0° (as in `triangle_angles`).
-        _ => 0.0,
+        _ => 1.0,
     }
+}
+
+/// An angle in degrees from its cosine. Non-increasing (acos is correctly rounded, so
+/// monotone), which lets `quality` select percentiles among cosines.
+fn degrees(cosine: f64) -> f64 {
+    cosine.acos().to_degrees()
 }
 
 /// Angle and edge statistics of `mesh` (NaN where the mesh has no triangles), in time linear
 /// in its size (the percentiles by selection, not a sort).
 pub fn quality(mesh: &Mesh) -> Quality {
-    let mut mins: Vec<f64> = Vec::with_capacity(mesh.triangles.len());
+    // The smallest angles' cosines: the k-th smallest angle is the arccosine of the k-th
+    // largest cosine, so only the selected ones need an acos.
+    let mut cosines: Vec<f64> = Vec::with_capacity(mesh.triangles.len());
     let (mut ratio_sum, mut ratio_min) = (0.0, f64::INFINITY);
     let (mut emin, mut emax, mut esum, mut en) = (f64::INFINITY, 0.0f64, 0.0, 0usize);
     for t in &mesh.triangles {
         let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
-        mins.push(smallest_angle(a, b, c));
+        cosines.push(smallest_angle_cosine(a, b, c));
         let ratio = radius_ratio(a, b, c);
         ratio_sum += ratio;
         ratio_min = ratio_min.min(ratio);
@@ -85,24 +99,47 @@ pub fn quality(mesh: &Mesh) -> Quality {
             en += 1;
         }
     }
-    let n = mins.len();
-    let (mut p1, mut p5, mut median) = (f64::NAN, f64::NAN, f64::NAN);
-    if n > 0 {
-        // Each selection leaves the smaller values before it: the next, lower quantile is
-        // selected among those.
+    let n = cosines.len();
+    let (mut p1, mut p5, mut median, mut min_angle) = (f64::NAN, f64::NAN, f64::NAN, f64::NAN);
+    if cosines.iter().any(|c| c.is_nan()) {
+        // A corner not finite: NaN angles sort by their sign bits, which no cosine order
+        // knows. The angles themselves, as they are.
+        let mut mins: Vec<f64> = cosines.into_iter().map(degrees).collect();
         let (m, p5_at, p1_at) = (rank(n, 0.5), rank(n, 0.05), rank(n, 0.01));
         median = *mins.select_nth_unstable_by(m, f64::total_cmp).1;
         p5 = *mins[..=m].select_nth_unstable_by(p5_at, f64::total_cmp).1;
         p1 = *mins[..=p5_at]
             .select_nth_unstable_by(p1_at, f64::total_cmp)
             .1;
-    }
-    Quality {
-        min_angle_deg: mins
+        min_angle = mins
             .iter()
             .copied()
             .min_by(f64::total_cmp)
-            .unwrap_or(f64::NAN),
+            .unwrap_or(f64::NAN);
+    } else if n > 0 {
+        // The angle of rank r (ascending) is the cosine of rank n − 1 − r (ascending). Each
+        // selection leaves the larger cosines after it: the next, lower angle quantile is
+        // selected among those.
+        let at = |r: usize| n - 1 - r;
+        let (m, p5_at, p1_at) = (at(rank(n, 0.5)), at(rank(n, 0.05)), at(rank(n, 0.01)));
+        median = degrees(*cosines.select_nth_unstable_by(m, f64::total_cmp).1);
+        let upper = &mut cosines[m..];
+        p5 = degrees(*upper.select_nth_unstable_by(p5_at - m, f64::total_cmp).1);
+        let upper = &mut cosines[p5_at..];
+        p1 = degrees(
+            *upper
+                .select_nth_unstable_by(p1_at - p5_at, f64::total_cmp)
+                .1,
+        );
+        min_angle = degrees(
+            cosines[p1_at..]
+                .iter()
+                .copied()
+                .fold(f64::NEG_INFINITY, f64::max),
+        );
+    }
+    Quality {
+        min_angle_deg: min_angle,
         p1_angle_deg: p1,
         p5_angle_deg: p5,
         median_angle_deg: median,

@@ -56,8 +56,6 @@ fn find(parent: &mut [u32], mut x: u32) -> u32 {
 /// Computes the topology of `mesh`, in time linear in its size (edges from
 /// [`Edges`], components by union–find).
 pub fn topology(mesh: &Mesh) -> Topology {
-    let edges = Edges::new(mesh.vertices.len(), &mesh.triangles);
-    let mut degenerate = 0;
     let nv = mesh.vertices.len().max(
         mesh.triangles
             .iter()
@@ -66,21 +64,31 @@ pub fn topology(mesh: &Mesh) -> Topology {
             .max()
             .unwrap_or(0),
     );
-    let mut used = vec![false; nv];
-    let mut parent: Vec<u32> = (0..nv as u32).collect();
-    for t in &mesh.triangles {
-        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-            degenerate += 1;
-        }
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            used[a as usize] = true;
-            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-            if ra != rb {
-                parent[ra.max(rb) as usize] = ra.min(rb);
+    // The edges and the components are independent: side by side on the rayon pool.
+    let (edges, (used, mut parent, degenerate)) = rayon::join(
+        || Edges::new(mesh.vertices.len(), &mesh.triangles),
+        || {
+            let mut degenerate = 0;
+            let mut used = vec![false; nv];
+            let mut parent: Vec<u32> = (0..nv as u32).collect();
+            for t in &mesh.triangles {
+                if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                    degenerate += 1;
+                }
+                for &k in t {
+                    used[k as usize] = true;
+                }
+                // Two of the three edges join all three corners.
+                for (a, b) in [(t[0], t[1]), (t[1], t[2])] {
+                    let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+                    if ra != rb {
+                        parent[ra.max(rb) as usize] = ra.min(rb);
+                    }
+                }
             }
-        }
-    }
+            (used, parent, degenerate)
+        },
+    );
     let mut boundary_edges = Vec::new();
     let mut non_manifold_edges = Vec::new();
     let mut misoriented_edges = Vec::new();

@@ -39,7 +39,6 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::creases::merge;
 use super::sizing::{Sizing, SizingSettings};
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Marched, Start};
 use crate::mesh::Mesh;
@@ -554,8 +553,16 @@ fn march_pieces(
         .iter_mut()
         .map(|m| std::mem::take(&mut m.mesh))
         .collect();
-    let mesh = merge(&parts);
-    let topo = topology(&mesh);
+    let (mesh, on) = join(&parts, cuts);
+    // The topology and the checks after it need only the mesh: side by side on the pool.
+    let planes: Vec<f64> = cuts.iter().map(|c| c.at).collect();
+    let (topo, (crossing, shapes)) = rayon::join(
+        || topology(&mesh),
+        || {
+            let crossing = !band(&mesh, axis, &planes, BAND * input.step).is_empty();
+            (crossing, shapes(&mesh, &on))
+        },
+    );
     if !topo.is_closed_and_oriented() {
         return Err(NoCut::Joined(
             "an edge is open, in more than two triangles or misoriented",
@@ -569,29 +576,19 @@ fn march_pieces(
             "the Euler characteristic differs from the survey's",
         ));
     }
-    let planes: Vec<f64> = cuts.iter().map(|c| c.at).collect();
-    if !band(&mesh, axis, &planes, BAND * input.step).is_empty() {
+    if crossing {
         return Err(NoCut::Joined("triangles of two pieces cross"));
     }
     // Away from the cuts only when a triangle at them is below the bar.
-    let on = on_cuts(&mesh, cuts);
-    let at_cuts = smallest_angle(&mesh, &on, true);
-    if at_cuts < CUT_ANGLE && at_cuts < smallest_angle(&mesh, &on, false) {
+    let at_cuts = shapes.at_cuts;
+    if at_cuts < CUT_ANGLE && at_cuts < smallest_angle_away(&mesh, &on) {
         return Err(NoCut::Angle { degrees: at_cuts });
     }
     // Slabs whose fronts start from their cut polygons can end below the mean radius ratio
     // the whole march reaches (flat superquadrics cut across, `SURFC_SWEEP_PIECES=2000`:
     // 0.965 in three slabs where the whole makes 0.977): such a cut is not taken.
     if settings.quality_angle > 0.0 {
-        let mean = mesh
-            .triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
-                quality::radius_ratio(a, b, c)
-            })
-            .sum::<f64>()
-            / mesh.triangles.len().max(1) as f64;
+        let mean = shapes.mean_ratio;
         let bar = settings.quality_ratio - RATIO_MARGIN;
         if mean < bar {
             return Err(NoCut::Ratio { mean, bar });
@@ -629,26 +626,93 @@ fn march_pieces(
     })
 }
 
-/// Which vertices of `mesh` are cut polygon vertices.
-fn on_cuts(mesh: &Mesh, cuts: &[Cut]) -> Vec<bool> {
+/// The slabs as one mesh, as `creases::merge` makes it where the only vertices with the
+/// same bits are the cut polygons' (the vertices two slabs share, bit for bit: a polygon
+/// vertex is a mesh vertex with its coordinates): each slab's vertices in order, a cut
+/// vertex once, at its first appearance, with the normalised sum of its slabs' normals.
+/// Only the cuts' few thousand vertices go into a table, which stays in cache; `merge`
+/// hashed every vertex (a fifth of a second on the fine sphere, in one thread). Returns the
+/// mesh and which of its vertices are cut polygon vertices.
+fn join(parts: &[Mesh], cuts: &[Cut]) -> (Mesh, Vec<bool>) {
     let bits = |p: &DVec3| p.to_array().map(f64::to_bits);
-    let cut: HashSet<[u64; 3], BitsHash> = cuts
+    // Each cut vertex's id in the joined mesh, once it has one.
+    let mut joined: HashMap<[u64; 3], Option<u32>, BitsHash> = cuts
         .iter()
         .flat_map(|c| c.loops.iter().flatten())
-        .map(bits)
+        .map(|p| (bits(p), None))
         .collect();
-    mesh.vertices
-        .iter()
-        .map(|p| cut.contains(&bits(p)))
-        .collect()
+    let vertices: usize = parts.iter().map(|p| p.vertices.len()).sum();
+    let mut out = Mesh {
+        vertices: Vec::with_capacity(vertices),
+        normals: Vec::with_capacity(vertices),
+        triangles: Vec::with_capacity(parts.iter().map(|p| p.triangles.len()).sum()),
+    };
+    let mut on = Vec::with_capacity(vertices);
+    let mut shared = Vec::new();
+    for part in parts {
+        let ids: Vec<u32> = part
+            .vertices
+            .iter()
+            .zip(&part.normals)
+            .map(|(v, n)| {
+                let fresh = out.vertices.len() as u32;
+                let slot = joined.get_mut(&bits(v));
+                if let Some(&mut Some(id)) = slot {
+                    out.normals[id as usize] += *n;
+                    shared.push(id);
+                    return id;
+                }
+                on.push(slot.is_some());
+                if let Some(slot) = slot {
+                    *slot = Some(fresh);
+                }
+                out.vertices.push(*v);
+                // As `merge` sums: from zero (a −0 component becomes +0).
+                out.normals.push(DVec3::ZERO + *n);
+                fresh
+            })
+            .collect();
+        out.triangles
+            .extend(part.triangles.iter().map(|t| t.map(|k| ids[k as usize])));
+    }
+    shared.sort_unstable();
+    shared.dedup();
+    for id in shared {
+        let n = &mut out.normals[id as usize];
+        *n = n.normalize_or(*n);
+    }
+    (out, on)
 }
 
-/// The smallest angle (degrees) of the triangles with a corner on a cut polygon
-/// (`at_cuts`), or of the others.
-fn smallest_angle(mesh: &Mesh, on: &[bool], at_cuts: bool) -> f64 {
+/// What the join asks of the triangles' shapes.
+struct CutShapes {
+    /// The smallest angle (degrees) of the triangles with a corner on a cut polygon.
+    at_cuts: f64,
+    /// The mean radius ratio (summed in triangle order).
+    mean_ratio: f64,
+}
+
+/// The joined mesh's `CutShapes` in one pass, `on` marking the cut polygons' vertices.
+fn shapes(mesh: &Mesh, on: &[bool]) -> CutShapes {
+    let (mut at_cuts, mut sum) = (f64::INFINITY, 0.0);
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
+        if t.iter().any(|&k| on[k as usize]) {
+            at_cuts = at_cuts.min(quality::smallest_angle(a, b, c));
+        }
+        sum += quality::radius_ratio(a, b, c);
+    }
+    CutShapes {
+        at_cuts,
+        mean_ratio: sum / mesh.triangles.len().max(1) as f64,
+    }
+}
+
+/// The smallest angle (degrees) of the triangles with no corner on a cut polygon.
+fn smallest_angle_away(mesh: &Mesh, on: &[bool]) -> f64 {
     mesh.triangles
         .iter()
-        .filter(|t| t.iter().any(|&k| on[k as usize]) == at_cuts)
+        .filter(|t| !t.iter().any(|&k| on[k as usize]))
         .map(|t| {
             let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
             quality::smallest_angle(a, b, c)
@@ -679,4 +743,79 @@ fn band(mesh: &Mesh, axis: usize, planes: &[f64], reach: f64) -> Vec<[u32; 2]> {
         sub.triangles.push(tri);
     }
     intersecting_pairs(&sub)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::survey::creases::merge;
+
+    /// Two caps over one cut loop (a hexagon in the plane y = 0) and a third slab over a
+    /// second loop: `join` gives `merge`'s mesh, bit for bit, normals of the shared vertices
+    /// included, and marks exactly the loops' vertices.
+    #[test]
+    fn the_join_is_the_merge_of_slabs_sharing_their_cut_polygons() {
+        let ring = |y: f64, r: f64| -> Vec<DVec3> {
+            (0..6)
+                .map(|i| {
+                    let a = i as f64 * std::f64::consts::TAU / 6.0;
+                    DVec3::new(r * a.cos(), y, r * a.sin())
+                })
+                .collect()
+        };
+        let (lower, upper) = (ring(0.0, 1.0), ring(1.0, 0.8));
+        // A slab: its own vertices, then the loops' (as a piece's polygons come first in a
+        // march, but anywhere will do), triangles fanned from its first vertex.
+        let slab = |own: Vec<DVec3>, loops: &[&Vec<DVec3>]| {
+            let mut vertices = own;
+            for l in loops {
+                vertices.extend(l.iter().copied());
+            }
+            let normals: Vec<DVec3> = vertices
+                .iter()
+                .map(|v| DVec3::new(-0.0, v.y, v.x).normalize_or(DVec3::Y))
+                .collect();
+            let n = vertices.len() as u32;
+            let triangles = (1..n - 1).map(|k| [0, k, k + 1]).collect();
+            Mesh {
+                vertices,
+                normals,
+                triangles,
+            }
+        };
+        let parts = [
+            slab(vec![DVec3::new(0.0, -1.0, 0.0)], &[&lower]),
+            slab(
+                vec![DVec3::new(0.1, 0.5, 0.2), DVec3::new(-0.2, 0.5, 0.1)],
+                &[&upper, &lower],
+            ),
+            slab(vec![DVec3::new(0.0, 2.0, 0.0)], &[&upper]),
+        ];
+        let cuts = [
+            Cut {
+                at: 0.0,
+                loops: vec![lower.clone()],
+            },
+            Cut {
+                at: 1.0,
+                loops: vec![upper.clone()],
+            },
+        ];
+        let (joined, on) = join(&parts, &cuts);
+        let merged = merge(&parts);
+        let bits = |vs: &[DVec3]| -> Vec<[u64; 3]> {
+            vs.iter().map(|v| v.to_array().map(f64::to_bits)).collect()
+        };
+        assert_eq!(bits(&joined.vertices), bits(&merged.vertices));
+        assert_eq!(bits(&joined.normals), bits(&merged.normals));
+        assert_eq!(joined.triangles, merged.triangles);
+        let loop_vertices: HashSet<[u64; 3]> =
+            bits(&lower).into_iter().chain(bits(&upper)).collect();
+        let expected: Vec<bool> = bits(&joined.vertices)
+            .iter()
+            .map(|b| loop_vertices.contains(b))
+            .collect();
+        assert_eq!(on, expected);
+        assert_eq!(on.iter().filter(|&&o| o).count(), 12);
+    }
 }
