@@ -90,6 +90,15 @@ fn may_tie(x: f64) -> bool {
     if e >= 0 {
         return false;
     }
+    // Digits before the point: at least ⌊log10 2^k⌋ + 1 for abs ≥ 2^k, with log10 2 taken
+    // low for k ≥ 0 and high below (1233/4096 < log10 2 < 1234/4096) and one less for
+    // log10's rounding. Coordinates from Newton steps have ~50 binary digits after the
+    // point: decided here, without the log10 (a fifth of an OBJ's float formatting).
+    let k = if biased == 0 { -1074 } else { biased - 1023 };
+    let at_least = ((k * if k >= 0 { 1233 } else { 1234 }) >> 12) + 1 - 1;
+    if at_least - e > 19 {
+        return false;
+    }
     // Digits before the point, give or take one (the margin covers log10's rounding).
     let whole = abs.log10().floor() as i64 + 1;
     whole - e <= 19
@@ -189,7 +198,28 @@ mod tests {
         }
         for x in edges {
             assert_eq!(ours(x), format!("{x:?}"), "{:#x}", x.to_bits());
+            assert_eq!(may_tie(x), may_tie_by_log10(x), "{:#x}", x.to_bits());
         }
+    }
+
+    /// `may_tie` without its shortcut: the digits before the point from log10 alone.
+    fn may_tie_by_log10(x: f64) -> bool {
+        if !x.is_finite() || x == 0.0 {
+            return false;
+        }
+        let abs = x.abs();
+        if abs >= 1e16 {
+            return true;
+        }
+        let bits = abs.to_bits();
+        let (biased, fraction) = ((bits >> 52) as i64, bits & ((1u64 << 52) - 1));
+        let (m, e) = if biased == 0 {
+            (fraction, -1074)
+        } else {
+            (fraction | (1u64 << 52), biased - 1075)
+        };
+        let e = e + i64::from(m.trailing_zeros());
+        e < 0 && abs.log10().floor() as i64 + 1 - e <= 19
     }
 
     #[test]
