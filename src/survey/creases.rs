@@ -384,37 +384,65 @@ const PROBES: usize = 8;
 /// A vertex shared by pieces gets the normalised sum of their normals, which agrees with
 /// every triangle around it wherever the crease is not a fold (normals less than 180° apart).
 pub(crate) fn merge(parts: &[Mesh]) -> Mesh {
-    let mut out = Mesh::default();
+    merge_at(parts, None).0
+}
+
+/// `merge`, where given `only` the positions that may be shared: then only those go into a
+/// table (which stays in cache: the slabs of `survey::pieces` share only their cut
+/// polygons), and each vertex is looked up there rather than hashed into a table of all.
+/// Also returns which vertices of the result are among `only` (none without it).
+pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<bool>) {
     let vertices: usize = parts.iter().map(|p| p.vertices.len()).sum();
-    let mut index: HashMap<[u64; 3], u32, BitsHash> =
-        HashMap::with_capacity_and_hasher(vertices, BitsHash);
-    let mut shared = Vec::new();
+    // Each position's id in the merged mesh, once it has one.
+    let mut index: HashMap<[u64; 3], Option<u32>, BitsHash> = match only {
+        Some(shared) => shared.iter().map(|&p| (bits(p), None)).collect(),
+        None => HashMap::with_capacity_and_hasher(vertices, BitsHash),
+    };
+    let mut out = Mesh {
+        vertices: Vec::with_capacity(vertices),
+        normals: Vec::with_capacity(vertices),
+        triangles: Vec::with_capacity(parts.iter().map(|p| p.triangles.len()).sum()),
+    };
+    let mut among = Vec::with_capacity(if only.is_some() { vertices } else { 0 });
+    let mut met_again = Vec::new();
     for part in parts {
         let ids: Vec<u32> = part
             .vertices
             .iter()
             .zip(&part.normals)
             .map(|(v, n)| {
-                let id = *index.entry(bits(*v)).or_insert_with(|| {
-                    out.vertices.push(*v);
-                    out.normals.push(DVec3::ZERO);
-                    shared.push(0u32);
-                    (out.vertices.len() - 1) as u32
-                });
-                out.normals[id as usize] += *n;
-                shared[id as usize] += 1;
-                id
+                let fresh = out.vertices.len() as u32;
+                let slot = match only {
+                    Some(_) => index.get_mut(&bits(*v)),
+                    None => Some(index.entry(bits(*v)).or_insert(None)),
+                };
+                if let Some(&mut Some(id)) = slot {
+                    out.normals[id as usize] += *n;
+                    met_again.push(id);
+                    return id;
+                }
+                if only.is_some() {
+                    among.push(slot.is_some());
+                }
+                if let Some(slot) = slot {
+                    *slot = Some(fresh);
+                }
+                out.vertices.push(*v);
+                // Summed from zero (a −0 component becomes +0).
+                out.normals.push(DVec3::ZERO + *n);
+                fresh
             })
             .collect();
         out.triangles
             .extend(part.triangles.iter().map(|t| t.map(|k| ids[k as usize])));
     }
-    for (n, count) in out.normals.iter_mut().zip(shared) {
-        if count > 1 {
-            *n = n.normalize_or(*n);
-        }
+    met_again.sort_unstable();
+    met_again.dedup();
+    for id in met_again {
+        let n = &mut out.normals[id as usize];
+        *n = n.normalize_or(*n);
     }
-    out
+    (out, among)
 }
 
 fn bits(p: DVec3) -> [u64; 3] {

@@ -39,10 +39,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::creases::merge_at;
 use super::sizing::{Sizing, SizingSettings};
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Marched, Start};
 use crate::mesh::Mesh;
-use crate::mesh::bits::BitsHash;
 use crate::mesh::check::intersecting_pairs;
 use crate::mesh::quality;
 use crate::mesh::topology::{Topology, topology};
@@ -626,62 +626,16 @@ fn march_pieces(
     })
 }
 
-/// The slabs as one mesh, as `creases::merge` makes it where the only vertices with the
-/// same bits are the cut polygons' (the vertices two slabs share, bit for bit: a polygon
-/// vertex is a mesh vertex with its coordinates): each slab's vertices in order, a cut
-/// vertex once, at its first appearance, with the normalised sum of its slabs' normals.
-/// Only the cuts' few thousand vertices go into a table, which stays in cache; `merge`
-/// hashed every vertex (a fifth of a second on the fine sphere, in one thread). Returns the
-/// mesh and which of its vertices are cut polygon vertices.
+/// The slabs as one mesh (`creases::merge_at`, looking up only the cut polygons' vertices:
+/// the only ones two slabs share, bit for bit, since a polygon vertex is a mesh vertex with
+/// its coordinates), and which of its vertices are cut polygon vertices. `merge`, which
+/// hashes every vertex, took a fifth of a second on the fine sphere in one thread.
 fn join(parts: &[Mesh], cuts: &[Cut]) -> (Mesh, Vec<bool>) {
-    let bits = |p: &DVec3| p.to_array().map(f64::to_bits);
-    // Each cut vertex's id in the joined mesh, once it has one.
-    let mut joined: HashMap<[u64; 3], Option<u32>, BitsHash> = cuts
+    let shared: Vec<DVec3> = cuts
         .iter()
-        .flat_map(|c| c.loops.iter().flatten())
-        .map(|p| (bits(p), None))
+        .flat_map(|c| c.loops.iter().flatten().copied())
         .collect();
-    let vertices: usize = parts.iter().map(|p| p.vertices.len()).sum();
-    let mut out = Mesh {
-        vertices: Vec::with_capacity(vertices),
-        normals: Vec::with_capacity(vertices),
-        triangles: Vec::with_capacity(parts.iter().map(|p| p.triangles.len()).sum()),
-    };
-    let mut on = Vec::with_capacity(vertices);
-    let mut shared = Vec::new();
-    for part in parts {
-        let ids: Vec<u32> = part
-            .vertices
-            .iter()
-            .zip(&part.normals)
-            .map(|(v, n)| {
-                let fresh = out.vertices.len() as u32;
-                let slot = joined.get_mut(&bits(v));
-                if let Some(&mut Some(id)) = slot {
-                    out.normals[id as usize] += *n;
-                    shared.push(id);
-                    return id;
-                }
-                on.push(slot.is_some());
-                if let Some(slot) = slot {
-                    *slot = Some(fresh);
-                }
-                out.vertices.push(*v);
-                // As `merge` sums: from zero (a −0 component becomes +0).
-                out.normals.push(DVec3::ZERO + *n);
-                fresh
-            })
-            .collect();
-        out.triangles
-            .extend(part.triangles.iter().map(|t| t.map(|k| ids[k as usize])));
-    }
-    shared.sort_unstable();
-    shared.dedup();
-    for id in shared {
-        let n = &mut out.normals[id as usize];
-        *n = n.normalize_or(*n);
-    }
-    (out, on)
+    merge_at(parts, Some(&shared))
 }
 
 /// What the join asks of the triangles' shapes.

@@ -78,14 +78,7 @@ fn may_tie(x: f64) -> bool {
     if abs >= 1e16 {
         return true;
     }
-    let bits = abs.to_bits();
-    let (biased, fraction) = ((bits >> 52) as i64, bits & ((1u64 << 52) - 1));
-    let (m, e) = if biased == 0 {
-        (fraction, -1074)
-    } else {
-        (fraction | (1u64 << 52), biased - 1075)
-    };
-    let e = e + i64::from(m.trailing_zeros());
+    let (biased, e) = exponents(abs);
     // An integer below 1e16 is exact in at most 16 digits: one shortest text.
     if e >= 0 {
         return false;
@@ -102,6 +95,19 @@ fn may_tie(x: f64) -> bool {
     // Digits before the point, give or take one (the margin covers log10's rounding).
     let whole = abs.log10().floor() as i64 + 1;
     whole - e <= 19
+}
+
+/// The biased exponent field of `abs` (> 0, finite) and the power of two of its lowest set
+/// bit: abs = m·2^e with m odd.
+fn exponents(abs: f64) -> (i64, i64) {
+    let bits = abs.to_bits();
+    let (biased, fraction) = ((bits >> 52) as i64, bits & ((1u64 << 52) - 1));
+    let (m, e) = if biased == 0 {
+        (fraction, -1074)
+    } else {
+        (fraction | (1u64 << 52), biased - 1075)
+    };
+    (biased, e + i64::from(m.trailing_zeros()))
 }
 
 /// Writes one line per item of `items`, made by `line`, in order; the lines are formatted in
@@ -211,14 +217,7 @@ mod tests {
         if abs >= 1e16 {
             return true;
         }
-        let bits = abs.to_bits();
-        let (biased, fraction) = ((bits >> 52) as i64, bits & ((1u64 << 52) - 1));
-        let (m, e) = if biased == 0 {
-            (fraction, -1074)
-        } else {
-            (fraction | (1u64 << 52), biased - 1075)
-        };
-        let e = e + i64::from(m.trailing_zeros());
+        let e = exponents(abs).1;
         e < 0 && abs.log10().floor() as i64 + 1 - e <= 19
     }
 
