@@ -560,7 +560,7 @@ fn march_pieces(
         || topology(&mesh),
         || {
             let crossing = !band(&mesh, axis, &planes, BAND * input.step).is_empty();
-            (crossing, shapes(&mesh, &on))
+            (crossing, cut_shapes(&mesh, &on))
         },
     );
     if !topo.is_closed_and_oriented() {
@@ -647,7 +647,7 @@ struct CutShapes {
 }
 
 /// The joined mesh's `CutShapes` in one pass, `on` marking the cut polygons' vertices.
-fn shapes(mesh: &Mesh, on: &[bool]) -> CutShapes {
+fn cut_shapes(mesh: &Mesh, on: &[bool]) -> CutShapes {
     let (mut at_cuts, mut sum) = (f64::INFINITY, 0.0);
     for t in &mesh.triangles {
         let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);

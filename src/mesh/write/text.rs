@@ -83,12 +83,13 @@ fn may_tie(x: f64) -> bool {
     if e >= 0 {
         return false;
     }
-    // Digits before the point: at least ⌊log10 2^k⌋ + 1 for abs ≥ 2^k, with log10 2 taken
-    // low for k ≥ 0 and high below (1233/4096 < log10 2 < 1234/4096) and one less for
-    // log10's rounding. Coordinates from Newton steps have ~50 binary digits after the
-    // point: decided here, without the log10 (a fifth of an OBJ's float formatting).
+    // Digits before the point: at least ⌊log10 2^k⌋ + 1 for abs ≥ 2^k, less one for the
+    // rounding of the log10 below: ⌊k·log10 2⌋, with log10 2 taken low for k ≥ 0 and high
+    // below (1233/4096 < log10 2 < 1234/4096). Coordinates from Newton steps have ~50
+    // binary digits after the point: decided here, without the log10 (a fifth of an OBJ's
+    // float formatting).
     let k = if biased == 0 { -1074 } else { biased - 1023 };
-    let at_least = ((k * if k >= 0 { 1233 } else { 1234 }) >> 12) + 1 - 1;
+    let at_least = (k * if k >= 0 { 1233 } else { 1234 }) >> 12;
     if at_least - e > 19 {
         return false;
     }
