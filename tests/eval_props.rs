@@ -632,7 +632,8 @@ fn every_gallery_surface_matches_reference_and_finite_differences() {
 
 /// Batches of every length up to a few pairs (the native code runs pairs of points and pads
 /// an odd last one), with the output shorter or longer than the points: each result is the
-/// single-point one, and nothing past the shorter length is written.
+/// single-point one, and nothing past the shorter length is written; the same through the
+/// `Surface` oracle.
 #[test]
 fn batches_of_any_length_match_single_points() {
     let p = program(GENUS3);
@@ -650,8 +651,16 @@ fn batches_of_any_length_match_single_points() {
             for m in [n.saturating_sub(1), n, n + 2] {
                 let mut values = vec![untouched.value; m];
                 let mut grads = vec![untouched; m];
+                // The oracle's batch (what the verification's chord errors call) as well.
+                let mut oracle = vec![untouched; m];
                 s.value_batch(&points[..n], &mut values);
                 s.value_gradient_batch(&points[..n], &mut grads);
+                assert!(Surface::value_gradient_batch(
+                    &mut s,
+                    &points[..n],
+                    &mut oracle
+                ));
+                assert_eq!(oracle, grads, "{engine:?} {n} {m}: the oracle's batch");
                 for i in 0..m {
                     let (want_v, want_g) = if i < n {
                         (s.value(points[i]), s.value_gradient(points[i]))

@@ -359,6 +359,12 @@ impl Vm {
         }
     }
 
+    /// Does the tape call `dist` children? Their foot-point searches start warm from the last
+    /// query, so what they give may depend on the order of the points asked.
+    pub fn has_children(&self) -> bool {
+        !self.children.is_empty()
+    }
+
     /// Why the interpreter evaluates although the engine is `Native`, once an evaluation has
     /// tried to compile the tape.
     pub fn native_error(&self) -> Option<&native::NativeError> {

@@ -16,7 +16,7 @@ use crate::mesh::check::intersecting_pairs;
 use crate::mesh::edges::Edges;
 use crate::solve::surface_point;
 use crate::solve::tolerance::SurfacePointTolerance;
-use crate::surface::Surface;
+use crate::surface::{Surface, ValueGrad};
 
 /// One way a mesh is not its surface.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
@@ -131,17 +131,15 @@ fn against_surface(
         }
     };
     // The chord error at every edge midpoint (in edge order), then at every centroid (in
-    // triangle order), evaluated as they come: no list of 2.5 points a triangle is kept.
-    let mut chord = |at: DVec3, h: f64, v: &mut Verdict| {
-        let error = chord_error(surface, at, tolerance, scale, sp_tol);
-        v.max_chord_error = v.max_chord_error.max(error);
-        if error > tolerance {
-            v.coarse.push(Found {
-                flaw: Flaw::Chord { error, tolerance },
-                at,
-                h,
-            });
-        }
+    // triangle order), evaluated a batch at a time: no list of 2.5 points a triangle is kept.
+    let mut chords = Chords {
+        surface,
+        tolerance,
+        scale,
+        sp_tol,
+        points: Vec::with_capacity(BATCH),
+        steps: Vec::with_capacity(BATCH),
+        grads: Vec::new(),
     };
     for (a, b, run) in edges.runs() {
         let at = 0.5 * (vs[a as usize] + vs[b as usize]);
@@ -155,7 +153,7 @@ fn against_surface(
         if let Some(flaw) = flaw {
             v.wrong.push(Found { flaw, at, h });
         }
-        chord(at, h, &mut v);
+        chords.push(at, h, &mut v);
     }
     drop(edges);
     for t in &mesh.triangles {
@@ -169,21 +167,89 @@ fn against_surface(
                 h: h_of(m, t),
             });
         }
-        chord(centroid(mesh, t), h_of(m, t), &mut v);
+        chords.push(centroid(mesh, t), h_of(m, t), &mut v);
     }
+    chords.flush(&mut v);
     v
 }
 
-/// The distance from `q` to the surface: the linear estimate |f|/|∇f| where it is well below
-/// the tolerance (its error is second order), else the distance to surfacepoint(q).
+/// Points whose chord error is to be checked: a batch's values and gradients in one call.
+const BATCH: usize = 256;
+
+/// The chord errors' points waiting for their batch, with the local steps there.
+struct Chords<'a> {
+    surface: &'a mut dyn Surface,
+    tolerance: f64,
+    scale: f64,
+    sp_tol: &'a SurfacePointTolerance,
+    points: Vec<DVec3>,
+    steps: Vec<f64>,
+    grads: Vec<ValueGrad>,
+}
+
+impl Chords<'_> {
+    /// Checks the chord error at `at` (made with the local step `h`) into `v`: now or with
+    /// its batch, in the order pushed either way.
+    fn push(&mut self, at: DVec3, h: f64, v: &mut Verdict) {
+        self.points.push(at);
+        self.steps.push(h);
+        if self.points.len() == BATCH {
+            self.flush(v);
+        }
+    }
+
+    /// The waiting points' chord errors into `v`: f and ∇f in one call where the surface
+    /// allows, else point after point with each one's surface point (the order the warm
+    /// starts of `dist` see).
+    fn flush(&mut self, v: &mut Verdict) {
+        let n = self.points.len();
+        self.grads.resize(n, ValueGrad::default());
+        let batched = self
+            .surface
+            .value_gradient_batch(&self.points, &mut self.grads);
+        for i in 0..n {
+            let (at, h) = (self.points[i], self.steps[i]);
+            let vg = if batched {
+                self.grads[i]
+            } else {
+                self.surface.value_gradient(at)
+            };
+            let error = chord_error(
+                &mut *self.surface,
+                at,
+                vg,
+                self.tolerance,
+                self.scale,
+                self.sp_tol,
+            );
+            v.max_chord_error = v.max_chord_error.max(error);
+            if error > self.tolerance {
+                v.coarse.push(Found {
+                    flaw: Flaw::Chord {
+                        error,
+                        tolerance: self.tolerance,
+                    },
+                    at,
+                    h,
+                });
+            }
+        }
+        self.points.clear();
+        self.steps.clear();
+    }
+}
+
+/// The distance from `q` to the surface, given f and ∇f there: the linear estimate |f|/|∇f|
+/// where it is well below the tolerance (its error is second order), else the distance to
+/// surfacepoint(q).
 fn chord_error(
     surface: &mut dyn Surface,
     q: DVec3,
+    vg: ValueGrad,
     tolerance: f64,
     scale: f64,
     sp_tol: &SurfacePointTolerance,
 ) -> f64 {
-    let vg = surface.value_gradient(q);
     let g = vg.gradient.length();
     if vg.value == 0.0 {
         return 0.0;

@@ -7,7 +7,7 @@ use serde::Serialize;
 
 use super::Mesh;
 use super::topology::{Topology, topology as topology_of};
-use crate::surface::Surface;
+use crate::surface::{Surface, ValueGrad};
 
 /// The three angles of a triangle in degrees (0 for a degenerate corner).
 pub fn triangle_angles(a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
@@ -172,14 +172,23 @@ pub fn radius_ratio(a: DVec3, b: DVec3, c: DVec3) -> f64 {
 /// gradient vanishes where f does not.
 pub fn max_vertex_error(mesh: &Mesh, surface: &mut dyn Surface) -> f64 {
     let mut worst = 0.0f64;
-    for &p in &mesh.vertices {
-        let vg = surface.value_gradient(p);
-        let e = if vg.value == 0.0 {
-            0.0
-        } else {
-            vg.value.abs() / vg.gradient.length()
-        };
-        worst = worst.max(if e.is_nan() { f64::INFINITY } else { e });
+    // A batch of vertices a call (`Surface::value_gradient_batch`).
+    let mut grads = [ValueGrad::default(); 256];
+    for points in mesh.vertices.chunks(grads.len()) {
+        let grads = &mut grads[..points.len()];
+        if !surface.value_gradient_batch(points, grads) {
+            for (vg, &p) in grads.iter_mut().zip(points) {
+                *vg = surface.value_gradient(p);
+            }
+        }
+        for vg in grads.iter() {
+            let e = if vg.value == 0.0 {
+                0.0
+            } else {
+                vg.value.abs() / vg.gradient.length()
+            };
+            worst = worst.max(if e.is_nan() { f64::INFINITY } else { e });
+        }
     }
     worst
 }

@@ -53,6 +53,16 @@ impl Surface for CompiledSurface {
         self.vm.value(&[p.x, p.y, p.z])
     }
 
+    /// In one run of the tape, where it has no `dist` children (whose warm starts make the
+    /// order of the points matter).
+    fn value_gradient_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) -> bool {
+        if self.vm.has_children() {
+            return false;
+        }
+        self.vm.value_grad_batch(points, out);
+        true
+    }
+
     fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
         let g = self.vm.value_grad(&[p.x, p.y, p.z]);
         ValueGrad {

@@ -13,7 +13,7 @@ use crate::eval::{Interval, IntervalGrad};
 pub use dist::{ImplicitDist, PatchDist};
 
 /// f(p) and ∇f(p) at one point.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ValueGrad {
     pub value: f64,
     pub gradient: DVec3,
@@ -33,6 +33,16 @@ pub trait Surface {
 
     /// f(p) and ∇f(p).
     fn value_gradient(&mut self, p: DVec3) -> ValueGrad;
+
+    /// f and ∇f at each point (`out[i]` for `points[i]`, for i below the shorter length) in
+    /// one call, bit for bit what `value_gradient` gives at each, where the surface answers
+    /// the same whatever the order of its queries: true then. False, with nothing written,
+    /// where it does not (the warm starts of `dist`) or cannot do better than a call a point;
+    /// the caller then asks one point at a time, in its own order. Default: false.
+    fn value_gradient_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) -> bool {
+        let _ = (points, out);
+        false
+    }
 
     /// An interval holding f(p) for every p of the box `lo ..= hi` where f(p) is defined
     /// (not NaN), or None when the surface cannot bound itself (then nothing may be
@@ -67,6 +77,9 @@ impl<S: Surface + ?Sized> Surface for Box<S> {
     fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
         (**self).value_gradient(p)
     }
+    fn value_gradient_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) -> bool {
+        (**self).value_gradient_batch(points, out)
+    }
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
         (**self).bound(lo, hi)
     }
@@ -81,6 +94,9 @@ impl<S: Surface + ?Sized> Surface for &mut S {
     }
     fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
         (**self).value_gradient(p)
+    }
+    fn value_gradient_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) -> bool {
+        (**self).value_gradient_batch(points, out)
     }
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
         (**self).bound(lo, hi)
