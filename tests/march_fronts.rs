@@ -11,7 +11,10 @@ use std::f64::consts::{PI, TAU};
 
 use common::*;
 use glam::DVec3;
-use surfc::march::{MarchError, MarchInput, MarchSettings, PolygonRole, Start, march};
+use surfc::march::verify::Flaw;
+use surfc::march::{
+    CoarsePolygon, MarchError, MarchInput, MarchSettings, PolygonRole, Start, march,
+};
 use surfc::mesh::Mesh;
 use surfc::mesh::check::Expect;
 use surfc::mesh::topology::topology;
@@ -172,6 +175,77 @@ fn torus_part_between_two_meridians() {
         },
     );
     assert_polygons_are_loops(&m, &[&front, &bound]);
+}
+
+/// Torus parts between two meridian circles at a step of 0.3, on tubes from thin to thick,
+/// the circles sampled from 4 vertices to about one a step: each part is meshed right (one
+/// tube between the two loops) or refused as the polygons' (`CoarsePolygon`, naming the
+/// front or the bound and an edge whose own chord strays from the tube or which is longer
+/// than twice the local step there), never after refinement rounds that cannot change a
+/// given polygon.
+#[test]
+fn polygons_too_coarse_for_the_surface_are_refused_as_theirs() {
+    let (r, step) = (1.0, 0.3);
+    let settings = MarchSettings::default();
+    let (mut right, mut refused) = (0, 0);
+    for a in [0.12, 0.2, 0.3, 0.45] {
+        let fine = samples(TAU * a, step);
+        for n in [4, 5, 6, 8, fine].into_iter().filter(|&n| n <= fine) {
+            let name = format!("torus part a = {a}, {n} vertices a circle");
+            let at = |phi: f64| {
+                let d = DVec3::new(phi.cos(), phi.sin(), 0.0);
+                (r * d, DVec3::Z.cross(d))
+            };
+            let (c0, t0) = at(0.0);
+            let (c1, t1) = at(2.0);
+            let front = circle(c0, t0, c0.normalize(), a, n);
+            let bound = circle(c1, -t1, c1.normalize(), a, n);
+            let mut s = torus(r, a);
+            match march(s.as_mut(), &input(step, front, vec![bound]), &settings) {
+                Ok(mesh) => {
+                    let (t, violations) = surfc::mesh::check::check(
+                        &mesh,
+                        Some(s.as_mut()),
+                        &Expect {
+                            euler: Some(0),
+                            boundary_loops: Some(2),
+                            components: Some(1),
+                            min_angle_deg: 0.0,
+                            ..Expect::default()
+                        },
+                    );
+                    assert!(violations.is_empty(), "{name}: {violations:?} ({t:?})");
+                    right += 1;
+                }
+                Err(MarchError::CoarsePolygon(c)) => {
+                    let CoarsePolygon {
+                        polygon,
+                        at,
+                        length,
+                        h,
+                        flaw,
+                        flaw_at,
+                        ..
+                    } = *c;
+                    assert!(
+                        matches!(polygon, PolygonRole::Front | PolygonRole::Bound(0)),
+                        "{name}: {polygon:?}"
+                    );
+                    // The edge named is one of the polygon's (2πa/n long, on the tube).
+                    let side = 2.0 * a * (std::f64::consts::PI / n as f64).sin();
+                    assert!((length - side).abs() < 1e-9, "{name}: {length} for {side}");
+                    let own_chord = flaw_at == at && matches!(flaw, Flaw::Chord { .. });
+                    assert!(
+                        own_chord || length > 2.0 * settings.near_distance * h,
+                        "{name}: edge {length} at a local step {h}, {flaw} at {flaw_at}"
+                    );
+                    refused += 1;
+                }
+                Err(e) => panic!("{name}: {e}"),
+            }
+        }
+    }
+    assert!(right > 0 && refused > 0, "{right} right, {refused} refused");
 }
 
 #[test]

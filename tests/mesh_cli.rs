@@ -116,6 +116,47 @@ fn mesh_that_cannot_be_completed_is_e0601_and_leaves_the_output_alone() {
     insta::assert_snapshot!(stderr);
 }
 
+/// A bound polygon sampled at a step much coarser than the surface's local step beside it
+/// lets the front through: the mesh is refused at once as the polygon's, pointing at the
+/// curve it was sampled from, not after refinement rounds that cannot change it (the
+/// blend of three cylinders at eight times its step re-marched an ever larger wrong mesh
+/// for over ten minutes).
+#[test]
+fn a_polygon_too_coarse_for_the_surface_is_refused_at_once_naming_its_curve() {
+    let dir = scratch("coarse-polygon");
+    let gallery = include_str!("../examples/blend_three_cylinders.surf");
+    assert!(gallery.contains("step: pi / 20;"));
+    let file = write(
+        &dir,
+        "blend.surf",
+        &gallery.replace("step: pi / 20;", "step: 8 * pi / 20;"),
+    );
+    let (code, stdout, stderr) = surfc(&["mesh", &file, "--color", "never"], &dir);
+    assert_eq!(code, 1, "{stdout}{stderr}");
+    assert!(
+        stderr.contains("error[E0601]: mesh `blend` could not be completed"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("bound polygon 0 is too coarse for the surface at this step"),
+        "{stderr}"
+    );
+    // The first bound is `contact_z_top`: its definition carries the label.
+    let label = stderr
+        .lines()
+        .position(|l| l.contains("the polygon is sampled from this curve"))
+        .unwrap_or_else(|| panic!("no label on the curve:\n{stderr}"));
+    assert!(
+        stderr
+            .lines()
+            .nth(label - 1)
+            .is_some_and(|l| l.contains("curve contact_z_top")),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("refinement"), "{stderr}");
+    assert!(!dir.join("blend.obj").exists());
+}
+
 #[test]
 fn curve_that_cannot_be_traced_is_e0602() {
     let dir = scratch("e0602");

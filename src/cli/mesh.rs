@@ -21,7 +21,7 @@ use super::report::{CODE_INPUT, CODE_IO, CODE_USAGE, Failure};
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
 use crate::diag::{self, Diagnostic, messages};
 use crate::eval::Engine;
-use crate::march::{MarchError, MarchInput, MarchSettings, Start};
+use crate::march::{MarchError, MarchInput, MarchSettings, PolygonRole, Start};
 use crate::mesh::quality::MeshReport;
 use crate::mesh::summary::{
     MeshSummary, Progress, estimate_triangles, format_stats, format_summary,
@@ -537,8 +537,25 @@ fn mesh_block(
                 .points,
         );
     }
-    let failed =
-        |e: &MarchError| messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(e));
+    let failed = |e: &MarchError| {
+        let d = messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(e));
+        // A polygon too coarse for the surface: the curve it was sampled from (a cut
+        // polygon of `pieces` has none).
+        let curve = match e {
+            MarchError::CoarsePolygon(c) => match c.polygon {
+                PolygonRole::Front => def.front,
+                PolygonRole::Bound(i) => def.bounds.get(i).copied(),
+            },
+            _ => None,
+        };
+        match curve {
+            Some(c) => d.secondary(
+                program.curves[c.index()].span,
+                "the polygon is sampled from this curve",
+            ),
+            None => d,
+        }
+    };
     let settings = march_settings(def);
     let mut warnings = Vec::new();
     let start = match (def.front, def.start, def.bbox) {
@@ -690,6 +707,9 @@ fn march_help(e: &MarchError) -> Option<&'static str> {
         }
         MarchError::NoSignChange { .. } => {
             "surfc meshes the boundary between f < 0 and f > 0: write the surface so that f changes sign on it (`g`, not `g^2` or `abs(g)`); a cusp or a crossing cannot be marched through, so keep it out of the `box`"
+        }
+        MarchError::CoarsePolygon(_) => {
+            "the curve's polygon is sampled at `step`: a smaller `step` (at most twice the local step named here), or `segments:` for a circle; a larger `tolerance` lets the local step grow where it comes from the surface's curvature"
         }
         MarchError::Unverified { .. } => {
             "without `uniform: true` the local step refines there; else a smaller `step` (or, for a coarse but right mesh, a larger `tolerance`); `SURFC_TRACE=1` shows each refinement"

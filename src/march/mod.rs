@@ -213,6 +213,9 @@ pub enum MarchError {
         count: usize,
         rounds: u32,
     },
+    /// A flaw that is a given polygon's, which no refinement mends (boxed: the largest).
+    #[error("{0}")]
+    CoarsePolygon(Box<CoarsePolygon>),
     #[error(
         "the mesh was not the surface near {at} ({flaw}), and re-marching it with a finer local step there failed (refinement {rounds}): {source}"
     )]
@@ -224,6 +227,25 @@ pub enum MarchError {
         /// Why the re-march stopped.
         source: Box<MarchError>,
     },
+}
+
+/// A given polygon too coarse for the surface at the step: an edge whose own chord strays
+/// from the surface, or too long for the local step at its ends, with the flaw beside it.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "{polygon} is too coarse for the surface at this step: its edge near {at} is {length:.3e} long where the surface asks for a local step of {h:.3e}, and no finer local step changes a given polygon; the mesh is not the surface near {flaw_at}: {flaw} ({count} place(s))"
+)]
+pub struct CoarsePolygon {
+    pub polygon: PolygonRole,
+    /// The edge's midpoint.
+    pub at: DVec3,
+    pub length: f64,
+    /// The smaller local step at the edge's ends.
+    pub h: f64,
+    pub flaw: Flaw,
+    pub flaw_at: DVec3,
+    /// The flaws of the mesh in all.
+    pub count: usize,
 }
 
 /// Triangulates `surface` as `input` says (paper Sect. 2), verified (see [`march_verified`]).
@@ -325,6 +347,24 @@ pub fn march_verified(
         // refused; the paper's coarse meshes need a `tolerance` that admits them.
         let mut flaws = verdict.wrong.clone();
         flaws.extend(&verdict.coarse);
+        // A flaw that is a given polygon's (its own edge's chord error, or beside an edge too
+        // long for the local step there) is refused now, not refined: no refinement changes
+        // a given polygon, and each round would re-march a larger wrong mesh.
+        let limit = 2.0 * settings.near_distance;
+        if let Some((edge, flaw)) = verify::coarse_polygon_edge(&marched, &flaws, limit) {
+            if let Some((_, m)) = fallback {
+                return Ok(m);
+            }
+            return Err(MarchError::CoarsePolygon(Box::new(CoarsePolygon {
+                polygon: polygon_of(input, edge.ends[0]),
+                at: 0.5 * (edge.ends[0] + edge.ends[1]),
+                length: edge.length,
+                h: edge.h,
+                flaw: flaw.flaw,
+                flaw_at: flaw.at,
+                count: flaws.len(),
+            })));
+        }
         let may_refine = !input.uniform && round < settings.refine_rounds;
         if flaws.is_empty() {
             let mut warnings = Vec::new();
@@ -414,6 +454,23 @@ pub fn march_verified(
             refining = Some(first);
         }
         round += 1;
+    }
+}
+
+/// The given polygon with a vertex at `p` (bit for bit, as the marcher keeps them): the
+/// front polygon, else the first bound that has it.
+fn polygon_of(input: &MarchInput, p: DVec3) -> PolygonRole {
+    let has = |poly: &[DVec3]| {
+        poly.iter()
+            .any(|q| q.to_array().map(f64::to_bits) == p.to_array().map(f64::to_bits))
+    };
+    match &input.start {
+        Start::Front(front) if has(front) => PolygonRole::Front,
+        _ => input
+            .bounds
+            .iter()
+            .position(|b| has(b))
+            .map_or(PolygonRole::Front, PolygonRole::Bound),
     }
 }
 

@@ -96,6 +96,71 @@ pub(super) fn verify(
     v
 }
 
+/// An edge of a given polygon (front or bound) that the mesh's flaws are laid to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CoarseEdge {
+    pub ends: [DVec3; 2],
+    pub length: f64,
+    /// The smaller local step at its two ends.
+    pub h: f64,
+}
+
+/// The first flaw (in `flaws`' order) that is a given polygon's, with that polygon's edge: a
+/// chord error at the midpoint of one of its edges (the edge's own chord strays from the
+/// surface), or any flaw within two edge lengths of an edge longer than `limit` local steps
+/// at its ends (the marcher sees a polygon vertex only within `near_distance`·h of a front
+/// point, so with `limit` = 2·`near_distance` a front may pass between the two vertices).
+/// Refining cannot mend such a flaw: the polygon's vertices are given (shared with other
+/// meshes), and a finer local step only makes its edges longer relative to the step.
+pub(super) fn coarse_polygon_edge(
+    m: &Triangulation,
+    flaws: &[Found],
+    limit: f64,
+) -> Option<(CoarseEdge, Found)> {
+    let v = &m.mesh.vertices;
+    let edges: Vec<CoarseEdge> = m
+        .polygon_edges
+        .iter()
+        .map(|&[a, b]| {
+            let (a, b) = (a as usize, b as usize);
+            CoarseEdge {
+                ends: [v[a], v[b]],
+                length: v[a].distance(v[b]),
+                h: m.h[a].min(m.h[b]),
+            }
+        })
+        .collect();
+    // The midpoints as the chord errors' points are made (`against_surface`), bit for bit.
+    let mut midpoints: Vec<([u64; 3], usize)> = edges
+        .iter()
+        .enumerate()
+        .map(|(i, e)| {
+            (
+                (0.5 * (e.ends[0] + e.ends[1])).to_array().map(f64::to_bits),
+                i,
+            )
+        })
+        .collect();
+    midpoints.sort_unstable();
+    let coarse: Vec<&CoarseEdge> = edges.iter().filter(|e| e.length > limit * e.h).collect();
+    flaws.iter().find_map(|f| {
+        let own = matches!(f.flaw, Flaw::Chord { .. })
+            .then(|| {
+                let key = f.at.to_array().map(f64::to_bits);
+                let i = midpoints.partition_point(|m| m.0 < key);
+                midpoints.get(i).filter(|m| m.0 == key).map(|m| &edges[m.1])
+            })
+            .flatten();
+        own.or_else(|| {
+            coarse
+                .iter()
+                .find(|e| f.at.distance(0.5 * (e.ends[0] + e.ends[1])) <= 2.0 * e.length)
+                .copied()
+        })
+        .map(|e| (*e, *f))
+    })
+}
+
 fn h_of(m: &Triangulation, t: &[u32; 3]) -> f64 {
     t.iter().map(|&k| m.h[k as usize]).fold(0.0f64, f64::max)
 }
