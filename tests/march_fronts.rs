@@ -150,18 +150,25 @@ fn whole_torus_from_one_circle() {
     assert_eq!(&m.vertices[..n], &meridian[..]);
 }
 
-#[test]
-fn torus_part_between_two_meridians() {
-    let (r, a, step) = (1.0, 0.35, 0.1);
-    let n = samples(TAU * a, step);
+/// The meridian circles (`n` vertices each) at angles 0 and 2 around the z axis of the torus
+/// with radii `r`, `a`: the front and the bound of the part between them.
+fn meridians(r: f64, a: f64, n: usize) -> (Vec<DVec3>, Vec<DVec3>) {
     let at = |phi: f64| {
         let d = DVec3::new(phi.cos(), phi.sin(), 0.0);
         (r * d, DVec3::Z.cross(d))
     };
     let (c0, t0) = at(0.0);
     let (c1, t1) = at(2.0);
-    let front = circle(c0, t0, c0.normalize(), a, n);
-    let bound = circle(c1, -t1, c1.normalize(), a, n);
+    (
+        circle(c0, t0, c0.normalize(), a, n),
+        circle(c1, -t1, c1.normalize(), a, n),
+    )
+}
+
+#[test]
+fn torus_part_between_two_meridians() {
+    let (r, a, step) = (1.0, 0.35, 0.1);
+    let (front, bound) = meridians(r, a, samples(TAU * a, step));
     let mut s = torus(r, a);
     let m = mesh_and_check(
         "torus part",
@@ -192,14 +199,7 @@ fn polygons_too_coarse_for_the_surface_are_refused_as_theirs() {
         let fine = samples(TAU * a, step);
         for n in [4, 5, 6, 8, fine].into_iter().filter(|&n| n <= fine) {
             let name = format!("torus part a = {a}, {n} vertices a circle");
-            let at = |phi: f64| {
-                let d = DVec3::new(phi.cos(), phi.sin(), 0.0);
-                (r * d, DVec3::Z.cross(d))
-            };
-            let (c0, t0) = at(0.0);
-            let (c1, t1) = at(2.0);
-            let front = circle(c0, t0, c0.normalize(), a, n);
-            let bound = circle(c1, -t1, c1.normalize(), a, n);
+            let (front, bound) = meridians(r, a, n);
             let mut s = torus(r, a);
             match march(s.as_mut(), &input(step, front, vec![bound]), &settings) {
                 Ok(mesh) => {

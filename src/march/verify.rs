@@ -117,6 +117,9 @@ pub(super) fn coarse_polygon_edge(
     flaws: &[Found],
     limit: f64,
 ) -> Option<(CoarseEdge, Found)> {
+    if flaws.is_empty() {
+        return None;
+    }
     let v = &m.mesh.vertices;
     let edges: Vec<CoarseEdge> = m
         .polygon_edges
