@@ -856,8 +856,10 @@ impl Marcher<'_> {
         let pa = self.pos[pa_id.index()];
         let (ap, an) = (self.rings.prev(a), self.rings.next(a));
         let (ap_id, an_id) = (self.rings.point(ap), self.rings.point(an));
-        // Near within the larger of the two local steps: the one with the larger step would
-        // jump over the other's front with its next completion.
+        // Near within the smaller of the two local steps: with the larger, fronts across a
+        // plate's tight rim were joined (docs/marcher.md, the local step). A given polygon
+        // with edges longer than twice the local step beside it can thus be passed between
+        // its vertices: the verification lays such flaws to the polygon (`CoarsePolygon`).
         let ha = self.h[pa_id.index()];
         let near = self.s.near_distance;
         let mut cands = std::mem::take(&mut self.scratch);
