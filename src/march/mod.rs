@@ -357,7 +357,7 @@ pub fn march_verified(
             }
             return Err(MarchError::CoarsePolygon(Box::new(CoarsePolygon {
                 polygon: polygon_of(input, edge.ends[0]),
-                at: 0.5 * (edge.ends[0] + edge.ends[1]),
+                at: edge.mid,
                 length: edge.length,
                 h: edge.h,
                 flaw: flaw.flaw,

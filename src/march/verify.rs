@@ -100,6 +100,8 @@ pub(super) fn verify(
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CoarseEdge {
     pub ends: [DVec3; 2],
+    /// Its midpoint, as the chord errors' points are made (`against_surface`), bit for bit.
+    pub mid: DVec3,
     pub length: f64,
     /// The smaller local step at its two ends.
     pub h: f64,
@@ -128,21 +130,16 @@ pub(super) fn coarse_polygon_edge(
             let (a, b) = (a as usize, b as usize);
             CoarseEdge {
                 ends: [v[a], v[b]],
+                mid: 0.5 * (v[a] + v[b]),
                 length: v[a].distance(v[b]),
                 h: m.h[a].min(m.h[b]),
             }
         })
         .collect();
-    // The midpoints as the chord errors' points are made (`against_surface`), bit for bit.
     let mut midpoints: Vec<([u64; 3], usize)> = edges
         .iter()
         .enumerate()
-        .map(|(i, e)| {
-            (
-                (0.5 * (e.ends[0] + e.ends[1])).to_array().map(f64::to_bits),
-                i,
-            )
-        })
+        .map(|(i, e)| (e.mid.to_array().map(f64::to_bits), i))
         .collect();
     midpoints.sort_unstable();
     let coarse: Vec<&CoarseEdge> = edges.iter().filter(|e| e.length > limit * e.h).collect();
@@ -157,7 +154,7 @@ pub(super) fn coarse_polygon_edge(
         own.or_else(|| {
             coarse
                 .iter()
-                .find(|e| f.at.distance(0.5 * (e.ends[0] + e.ends[1])) <= 2.0 * e.length)
+                .find(|e| f.at.distance(e.mid) <= 2.0 * e.length)
                 .copied()
         })
         .map(|e| (*e, *f))
