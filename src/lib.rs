@@ -66,6 +66,8 @@ pub mod surface;
 pub mod survey;
 #[doc(hidden)]
 pub mod syntax;
+#[doc(hidden)]
+pub mod values;
 
 /// What the unit tests share (a seeded random sampler).
 #[cfg(test)]

@@ -167,13 +167,13 @@ pub fn unmatched_close(span: Span, c: char) -> Diagnostic {
         .primary(span, format!("this `{c}` closes nothing"))
 }
 
-pub fn nesting_too_deep(span: Span) -> Diagnostic {
+/// Nesting deeper than the syntax's limits (`syntax::limits`, passed in: the limits are the
+/// parser's).
+pub fn nesting_too_deep(span: Span, max_parens: usize, max_depth: usize) -> Diagnostic {
     Diagnostic::error("E0005", "expression nested too deeply")
         .primary(span, "nesting goes deeper than surfc allows here")
         .note(format!(
-            "at most {} nested parentheses and an expression depth of {} are allowed",
-            crate::syntax::limits::MAX_PAREN_DEPTH,
-            crate::syntax::limits::MAX_EXPR_DEPTH
+            "at most {max_parens} nested parentheses and an expression depth of {max_depth} are allowed"
         ))
         .help("split the expression with `fn` or `const` definitions")
 }

@@ -24,9 +24,8 @@ pub mod ops;
 use glam::DVec3;
 
 use crate::compile::tape::{Arity, Op, Reg, Tape};
-use crate::surface::{Surface, ValueGrad};
-pub use interval::Interval;
-pub use interval_grad::IntervalGrad;
+use crate::values::{Surface, ValueGrad};
+pub use crate::values::{Interval, IntervalGrad};
 pub use ops::Grad;
 
 /// Points per block of the gradient batch path. Measured on the genus-3 and blend benches

@@ -30,7 +30,7 @@ use glam::DVec3;
 
 use super::ops::{self, Grad};
 use crate::compile::tape::{Arity, Op, Tape};
-use crate::surface::ValueGrad;
+use crate::values::ValueGrad;
 
 /// Why a tape has no native code (the VM evaluates it instead).
 #[derive(Debug, thiserror::Error)]

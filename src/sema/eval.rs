@@ -125,7 +125,7 @@ impl Checker<'_> {
                 None
             }
             Err(NoValue::TooDeep) => {
-                self.diags.push(messages::nesting_too_deep(e.span));
+                self.diags.push(crate::syntax::nesting_too_deep(e.span));
                 None
             }
             Err(NoValue::Broken) => None,

@@ -134,7 +134,7 @@ impl<'f> Checker<'f> {
     fn callable_names(&self) -> Vec<&str> {
         let mut names: Vec<&str> = Builtin::ALL.iter().map(|b| b.name()).collect();
         names.extend(COMBINATORS);
-        names.extend(super::solids::SOLIDS);
+        names.extend(super::SOLIDS);
         names.extend(
             self.globals
                 .iter()
@@ -389,7 +389,7 @@ impl<'f> Checker<'f> {
             return self.lower_combinator(name, args, span, cx);
         }
         // Before the curve constructors: in an expression, `intersection` is the boolean.
-        if super::solids::SOLIDS.contains(&name) {
+        if super::SOLIDS.contains(&name) {
             return self.lower_solid(name, args, span, cx);
         }
         if CURVE_CONSTRUCTORS.contains(&name) {

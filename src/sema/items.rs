@@ -145,7 +145,7 @@ impl<'f> Checker<'f> {
     fn not_a_curve(&mut self, e: &ast::Expr) {
         match &e.kind {
             ast::ExprKind::Call { callee, .. }
-                if super::solids::SOLIDS.contains(&callee.name.as_str())
+                if super::SOLIDS.contains(&callee.name.as_str())
                     && !self.globals.contains_key(callee.name.as_str()) =>
             {
                 self.diags

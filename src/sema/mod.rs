@@ -103,6 +103,23 @@ pub(crate) struct Decl<'f> {
 pub(crate) const COORDINATES: [&str; 3] = ["x", "y", "z"];
 pub(crate) const COMBINATORS: [&str; 4] = ["dist", "offset", "product", "blend"];
 pub(crate) const CURVE_CONSTRUCTORS: [&str; 4] = ["intersection", "circle", "boundary", "reverse"];
+/// The solid constructors, in the order docs/language.md lists them.
+pub(crate) const SOLIDS: [&str; 14] = [
+    "union",
+    "intersection",
+    "difference",
+    "smooth_union",
+    "smooth_intersection",
+    "smooth_difference",
+    "translate",
+    "rotate",
+    "scale",
+    "sphere",
+    "box",
+    "cylinder",
+    "torus",
+    "plane",
+];
 
 fn reserved(name: &str) -> Option<&'static str> {
     if COORDINATES.contains(&name) {

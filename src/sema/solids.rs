@@ -17,24 +17,6 @@ use super::expr::{Ctx, Place, count_words};
 use super::program::*;
 use super::{Checker, Kind};
 
-/// The solid constructors, in the order docs/language.md lists them.
-pub(crate) const SOLIDS: [&str; 14] = [
-    "union",
-    "intersection",
-    "difference",
-    "smooth_union",
-    "smooth_intersection",
-    "smooth_difference",
-    "translate",
-    "rotate",
-    "scale",
-    "sphere",
-    "box",
-    "cylinder",
-    "torus",
-    "plane",
-];
-
 const TRANSFORMS: [&str; 3] = ["translate", "rotate", "scale"];
 
 /// Rotation-matrix entries closer to 0 than this are 0, so that a quarter turn maps the axes

@@ -219,7 +219,7 @@ impl Lower {
     fn primary(&self, p: Pair<'_, Rule>, depth: usize) -> Res<(Expr, usize)> {
         let span = self.span(&p);
         if depth > MAX_EXPR_DEPTH {
-            return Err(messages::nesting_too_deep(span));
+            return Err(super::nesting_too_deep(span));
         }
         match p.as_rule() {
             Rule::number => {
@@ -312,7 +312,7 @@ fn binary(op: BinOp, l: (Expr, usize), r: (Expr, usize)) -> Res<(Expr, usize)> {
     let depth = 1 + l.1.max(r.1);
     let span = l.0.span.join(r.0.span);
     if depth > MAX_EXPR_DEPTH {
-        return Err(messages::nesting_too_deep(span));
+        return Err(super::nesting_too_deep(span));
     }
     Ok((
         Expr {
@@ -356,7 +356,7 @@ impl Climber<'_, '_> {
     /// `^` chain; recursion depth bounded by `MAX_EXPR_DEPTH`.
     fn prefix(&mut self, depth: usize) -> Res<(Expr, usize)> {
         if depth > MAX_EXPR_DEPTH {
-            return Err(messages::nesting_too_deep(self.whole));
+            return Err(super::nesting_too_deep(self.whole));
         }
         match self.toks.next() {
             Some(Tok::Neg(neg)) => {

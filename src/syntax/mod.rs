@@ -38,6 +38,11 @@ pub mod limits {
     pub const MAX_SYNTAX_DIAGNOSTICS: usize = 30;
 }
 
+/// E0005 with the limits above.
+pub fn nesting_too_deep(span: crate::span::Span) -> Diagnostic {
+    messages::nesting_too_deep(span, limits::MAX_PAREN_DEPTH, limits::MAX_EXPR_DEPTH)
+}
+
 /// The text of a file's bytes, or the diagnostic for a file that is not UTF-8 (E0009), to be
 /// rendered with `String::from_utf8_lossy(bytes)` as the source.
 pub fn source_text(bytes: &[u8]) -> Result<&str, Diagnostic> {

@@ -145,7 +145,7 @@ pub(crate) fn scan(src: &str) -> Scan {
             b'(' => {
                 parens.push(i);
                 if parens.len() > MAX_PAREN_DEPTH && !too_deep_reported {
-                    out.push(messages::nesting_too_deep(Span::new(i, i + 1)));
+                    out.push(super::nesting_too_deep(Span::new(i, i + 1)));
                     too_deep_reported = true;
                 }
             }
