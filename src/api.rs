@@ -7,7 +7,7 @@ use std::io::{self, Write};
 
 use glam::DVec3;
 
-use crate::cli::build::Builder;
+use crate::pipeline::build::Builder;
 use crate::diag;
 use crate::eval::Engine;
 use crate::sema::program::{Program, SurfaceId, SurfaceRef};
@@ -15,7 +15,7 @@ use crate::span::SourceMap;
 use crate::surface::Surface;
 use crate::surface::compiled::CompiledSurface;
 
-pub use crate::cli::mesh::Meshed;
+pub use crate::pipeline::Meshed;
 pub use crate::diag::{Diagnostic, Severity};
 pub use crate::mesh::quality::{MeshReport, MeshStats};
 pub use crate::mesh::write::Format;
@@ -88,7 +88,7 @@ pub struct Checked {
 /// # Ok::<(), surfc::Errors>(())
 /// ```
 pub fn check(source: &str) -> Result<Checked, Errors> {
-    let (files, checked, diagnostics) = crate::cli::load::analyse(source);
+    let (files, checked, diagnostics) = crate::pipeline::load::analyse(source);
     match checked {
         Some((_, program)) if !diag::has_errors(&diagnostics) => Ok(Checked {
             source: source.to_owned(),
@@ -162,10 +162,12 @@ impl Checked {
     /// # Ok::<(), surfc::Errors>(())
     /// ```
     pub fn mesh(&self) -> Result<Vec<Meshed>, Errors> {
-        crate::cli::mesh::mesh_source(&self.source).map_err(|diagnostics| Errors {
-            diagnostics,
-            files: self.files.clone(),
-        })
+        crate::pipeline::mesh_checked(&self.program, &self.source, Engine::default()).map_err(
+            |diagnostic| Errors {
+                diagnostics: vec![diagnostic],
+                files: self.files.clone(),
+            },
+        )
     }
 }
 
@@ -211,7 +213,7 @@ pub enum CompileError {
 
 /// The meshes of [`Checked::mesh`] as [`write_mesh`] takes them: each with its block's name.
 pub fn named(meshed: &[Meshed]) -> Vec<NamedMesh<'_>> {
-    crate::cli::mesh::named(meshed)
+    crate::pipeline::named(meshed)
 }
 
 /// Writes meshes in `format` as one file's bytes: one named object, group, node or region

@@ -45,6 +45,8 @@ pub use api::{
 #[doc(hidden)]
 pub mod cli;
 #[doc(hidden)]
+pub mod pipeline;
+#[doc(hidden)]
 pub mod compile;
 #[doc(hidden)]
 pub mod diag;

@@ -44,7 +44,7 @@ fn check_limits(loaded: &Loaded, color: ColorMode) -> u8 {
             continue;
         }
         if let Err(e) = compile::check_limits(program, &r, &mut Vec::new()) {
-            if let Some(d) = super::build::limit_diagnostic(&e) {
+            if let Some(d) = crate::pipeline::build::limit_diagnostic(&e) {
                 diag::emit_stderr_map(&[d], &loaded.map, stderr_color(color));
                 return EXIT_INPUT;
             }

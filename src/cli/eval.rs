@@ -65,7 +65,7 @@ pub(crate) fn load_surface(
 /// Why a surface of `loaded` could not be compiled (exit 1): a diagnostic with its span for a
 /// limit the user reached, else a message.
 pub(crate) fn compile_failure(e: &CompileError, loaded: &Loaded, color: ColorMode) -> Failure {
-    match super::build::limit_diagnostic(e) {
+    match crate::pipeline::build::limit_diagnostic(e) {
         Some(d) => Failure::diagnostics_map(&[d], &loaded.map, super::load::stderr_color(color)),
         None => Failure::new(
             EXIT_INPUT,
@@ -82,7 +82,7 @@ pub fn run(args: EvalArgs, color: ColorMode) -> u8 {
         Err(failure) => return failure.finish(args.json),
     };
     // dist() children measure their tolerances against a unit length: eval has no step.
-    let builder = super::build::Builder::new(&loaded.program, args.engine.into());
+    let builder = crate::pipeline::build::Builder::new(&loaded.program, args.engine.into());
     let mut surface = match builder.surface(&SurfaceRef::Surface(id), 1.0) {
         Ok(s) => s,
         Err(e) => return compile_failure(&e, &loaded, color).finish(args.json),

@@ -5,8 +5,9 @@
 use std::io::{IsTerminal, Read};
 use std::path::{Path, PathBuf};
 
-use crate::diag::{self, Diagnostic};
-use crate::sema::{self, program::Program};
+use crate::diag;
+use crate::pipeline::load::analyse_file;
+use crate::sema::program::Program;
 use crate::span::SourceMap;
 use crate::syntax::{self, ast};
 
@@ -36,8 +37,7 @@ pub(crate) fn stderr_color(color: ColorMode) -> bool {
     }
 }
 
-/// The name standard input goes by in diagnostics and messages.
-pub(crate) const STDIN_NAME: &str = "<stdin>";
+pub(crate) use crate::pipeline::load::STDIN_NAME;
 
 /// Whether a FILE argument means standard input (`-`).
 pub(crate) fn is_stdin(path: &Path) -> bool {
@@ -84,35 +84,6 @@ pub(crate) fn read_source(path: &Path, color: ColorMode) -> Result<String, Failu
 /// [`read_source`] for commands that need only the exit code.
 pub(crate) fn read(path: &Path, color: ColorMode) -> Result<String, u8> {
     read_source(path, color).map_err(|f| f.exit)
-}
-
-/// Parses and checks source text (its imports relative to the current directory); returns
-/// every file read, the AST and the program (if the file parsed) and every diagnostic.
-pub(crate) fn analyse(source: &str) -> (SourceMap, Option<(ast::File, Program)>, Vec<Diagnostic>) {
-    analyse_file(STDIN_NAME, None, source, &[])
-}
-
-/// Parses `source` (named `name`, read from `path` if it is a file) with the files it
-/// imports, and checks it with the `-D` values `defines`: every file read, the AST and the
-/// program (if everything parsed), and every diagnostic.
-pub(crate) fn analyse_file(
-    name: &str,
-    path: Option<&Path>,
-    source: &str,
-    defines: &[(String, f64)],
-) -> (SourceMap, Option<(ast::File, Program)>, Vec<Diagnostic>) {
-    let parsed = syntax::imports::parse_with_imports(name, path, source);
-    let mut diags = parsed.diagnostics;
-    let Some(file) = parsed.file else {
-        return (parsed.map, None, diags);
-    };
-    let options = sema::Options {
-        defines: defines.to_vec(),
-        imported_from: Some(parsed.imported_from),
-    };
-    let (program, more) = sema::check_with(&file, &options);
-    diags.extend(more);
-    (parsed.map, Some((file, program)), diags)
 }
 
 /// `-D NAME=VALUE` (repeatable) of the commands that read a `.surf` file.

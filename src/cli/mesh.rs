@@ -6,34 +6,23 @@
 
 use std::io::Write;
 use std::path::PathBuf;
-use std::sync::atomic::AtomicU64;
 use std::time::Instant;
 
 use clap::ValueEnum;
-use glam::DVec3;
-use rayon::prelude::*;
 use serde::Serialize;
 
-use super::build::{self, BuildError, Builder};
-use super::creases;
 use super::load::{Loaded, input_name, is_stdin, load_reported, stderr_color};
 use super::report::{CODE_INPUT, CODE_IO, CODE_USAGE, Failure};
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
-use crate::diag::{self, Diagnostic, messages};
 use crate::eval::Engine;
-use crate::march::{MarchError, MarchInput, MarchSettings, PolygonRole, Start};
 use crate::mesh::quality::MeshReport;
 use crate::mesh::summary::{
-    MeshSummary, Progress, estimate_triangles, format_stats, format_summary,
+    MeshSummary, format_stats, format_summary,
 };
-use crate::mesh::topology::Topology;
 use crate::mesh::write::{Format, target, write_mesh_file};
-use crate::mesh::{Mesh, NamedMesh, net};
-use crate::sema::program::{MeshDef, Program, SurfaceRef};
-use crate::solve::surface_point_near;
-use crate::surface::compiled::CompiledSurface;
-use crate::survey::components::{self, Marching, SearchError, SearchSettings};
-use crate::survey::pieces;
+use crate::mesh::NamedMesh;
+use crate::sema::program::MeshDef;
+use crate::pipeline::{CreaseCounts, Meshed, mesh_program, named};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MeshFormat {
@@ -126,49 +115,6 @@ struct MeshJson<'a> {
 
 fn is_one(n: &usize) -> bool {
     *n == 1
-}
-
-/// What a mesh made crease by crease (`survey::creases`) has of its creases.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub struct CreaseCounts {
-    /// Crease curves traced in the box (closed loops and corner-to-corner curves).
-    pub creases: usize,
-    /// Corners where three pieces meet.
-    pub corners: usize,
-    /// Vertices of the mesh on a crease polygon (corners included), each once.
-    pub crease_vertices: usize,
-}
-
-/// A mesh block that was meshed.
-#[derive(Clone, Debug)]
-pub struct Meshed {
-    /// The mesh block's name.
-    pub name: String,
-    /// The name of the surface it meshes, or the text of its expression.
-    pub surface: String,
-    /// The block's `step`.
-    pub step: f64,
-    /// The block's `box`, if it has one.
-    pub bbox: Option<(DVec3, DVec3)>,
-    /// The triangles.
-    pub mesh: Mesh,
-    /// Topology and quality of the triangles (the figures of `surfc mesh --json`).
-    pub report: MeshReport,
-    /// The largest distance from a triangle's centroid or edge midpoint to the surface.
-    pub max_chord_error: f64,
-    /// What the user should know: components smaller than the step, regions where no seed
-    /// converged, features cut at the floor of the local step (also printed on stderr).
-    pub warnings: Vec<String>,
-    /// Whether the mesh is oriented against its ∇f, to agree with the meshes it shares a
-    /// polygon with (`mesh::net`).
-    pub flipped: bool,
-    /// The creases, when the mesh was made crease by crease.
-    pub creases: Option<CreaseCounts>,
-    /// Slabs the component was cut into and marched on separate threads (`survey::pieces`);
-    /// 1 when it was marched whole.
-    pub pieces: usize,
-    /// Wall-clock time to build and mesh the block, in seconds.
-    pub seconds: f64,
 }
 
 pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
@@ -333,17 +279,6 @@ fn write_stdout(format: Format, meshes: &[NamedMesh]) -> Result<(), Failure> {
     }
 }
 
-/// The meshes as the writers and the renderer take them.
-pub fn named(meshed: &[Meshed]) -> Vec<NamedMesh<'_>> {
-    meshed
-        .iter()
-        .map(|m| NamedMesh {
-            name: &m.name,
-            mesh: &m.mesh,
-        })
-        .collect()
-}
-
 /// The mesh blocks to mesh, in file order: all, or those `--only` names. An unknown name is
 /// a usage error that lists the known ones.
 pub(crate) fn select<'a>(loaded: &'a Loaded, only: &[String]) -> Result<Vec<&'a MeshDef>, Failure> {
@@ -379,16 +314,6 @@ pub(crate) fn select<'a>(loaded: &'a Loaded, only: &[String]) -> Result<Vec<&'a 
         .collect())
 }
 
-/// Meshes the blocks in order; the first failure is reported as a diagnostic (exit 1).
-/// The marcher's settings for a mesh block: the defaults, with what the block asks for.
-pub(super) fn march_settings(def: &MeshDef) -> MarchSettings {
-    let defaults = MarchSettings::default();
-    MarchSettings {
-        quality_ratio: def.radius_ratio.unwrap_or(defaults.quality_ratio),
-        ..defaults
-    }
-}
-
 pub(crate) fn mesh_blocks(
     loaded: &Loaded,
     blocks: &[&MeshDef],
@@ -400,344 +325,4 @@ pub(crate) fn mesh_blocks(
         .map_err(|d| Failure::diagnostics_map(&[d], &loaded.map, stderr_color(color)))
 }
 
-/// Parses, checks and meshes every mesh block of `source`: the library form of
-/// `surfc mesh`, for tests and embedders. Err holds every diagnostic of the file, or the one
-/// that says why a mesh could not be completed.
-pub fn mesh_source(source: &str) -> Result<Vec<Meshed>, Vec<Diagnostic>> {
-    mesh_source_with(source, Engine::default())
-}
 
-/// [`mesh_source`] with the surfaces evaluated by `engine`.
-pub fn mesh_source_with(source: &str, engine: Engine) -> Result<Vec<Meshed>, Vec<Diagnostic>> {
-    let (_, checked, diags) = super::load::analyse(source);
-    match checked {
-        Some((_, program)) if !diag::has_errors(&diags) => {
-            mesh_checked(&program, source, engine).map_err(|d| vec![d])
-        }
-        _ => Err(diags),
-    }
-}
-
-/// Meshes every block of a checked `program` (its `source` names anonymous surfaces): for
-/// callers that change the program first (the fuzzer caps `max_triangles`).
-pub fn mesh_checked(
-    program: &Program,
-    source: &str,
-    engine: Engine,
-) -> Result<Vec<Meshed>, Diagnostic> {
-    let blocks: Vec<&MeshDef> = program.meshes.iter().collect();
-    mesh_program(program, source, &blocks, true, engine)
-}
-
-/// Meshes the blocks in order, with a progress bar on a terminal unless `quiet`, and
-/// orients the nets they form as one.
-fn mesh_program(
-    program: &Program,
-    source: &str,
-    blocks: &[&MeshDef],
-    quiet: bool,
-    engine: Engine,
-) -> Result<Vec<Meshed>, Diagnostic> {
-    // Blocks on the threads of the pool, each with its own builder: surfaces are not shared
-    // between threads, and a curve used by two blocks is sampled by each to the same bits
-    // (sampling is a function of the curve, the step and the box). Results are taken in
-    // file order, the first failure in file order is the error: the same for any number of
-    // threads.
-    let results: Vec<Result<Meshed, Diagnostic>> = blocks
-        .par_iter()
-        .map(|def| {
-            let mut builder = Builder::new(program, engine);
-            let estimate = def
-                .bbox
-                .and_then(|(lo, hi)| estimate_triangles(def.step, lo, hi));
-            let progress = Progress::start(&def.name, quiet, estimate);
-            let result = mesh_block(program, source, &mut builder, def, progress.counter());
-            progress.finish();
-            result
-        })
-        .collect();
-    let mut meshed = results
-        .into_iter()
-        .collect::<Result<Vec<Meshed>, Diagnostic>>()?;
-    // The meshes go into one file: where they share a polygon, they are one net.
-    let flips = net::orient(&mut meshed.iter_mut().map(|m| &mut m.mesh).collect::<Vec<_>>());
-    for (m, flipped) in meshed.iter_mut().zip(flips) {
-        m.flipped = flipped;
-    }
-    Ok(meshed)
-}
-
-fn mesh_block(
-    program: &Program,
-    source: &str,
-    builder: &mut Builder,
-    def: &MeshDef,
-    progress: &AtomicU64,
-) -> Result<Meshed, Diagnostic> {
-    let started = Instant::now();
-    let build_failed = |e: BuildError| {
-        let curve = match &e {
-            BuildError::Curve { curve, .. } => Some(program.curves[curve.index()].span),
-            BuildError::Compile(c) => {
-                if let Some(d) = build::limit_diagnostic(c) {
-                    return d.secondary(def.span, "in this mesh block");
-                }
-                None
-            }
-        };
-        messages::mesh_build_failed(&def.name, def.span, &e, curve)
-    };
-    let mut surface = builder
-        .surface(&def.surface, def.step)
-        .map_err(|e| build_failed(e.into()))?;
-    // A fresh oracle of the surface for each march of the component search, built on the
-    // thread that marches (surface::Fork).
-    let engine = builder.engine();
-    let fork = || {
-        Builder::new(program, engine)
-            .surface(&def.surface, def.step)
-            .ok()
-            .map(|s| Box::new(s) as Box<dyn crate::surface::Surface>)
-    };
-    let mut creased = creases::creased_of(builder, def).map_err(|e| match e {
-        Ok(c) => build_failed(c.into()),
-        Err(d) => d,
-    })?;
-    let crease_box = match (&creased, def.bbox, def.start) {
-        (Some(_), None, Some(_)) => creases::derived_box(&mut surface, def.step),
-        _ => def.bbox,
-    };
-    if let (Some(c), Some(bbox), None, true) = (
-        creased.as_mut(),
-        crease_box,
-        def.front,
-        def.bounds.is_empty(),
-    ) {
-        let out = creases::mesh(c, &mut surface, &fork, def, bbox)?;
-        let counts = creases::counts(&out);
-        let mut meshed = finish(
-            program,
-            source,
-            def,
-            &mut surface,
-            (out.mesh, None),
-            out.max_chord_error,
-            out.warnings,
-            started,
-        );
-        meshed.creases = Some(counts);
-        return Ok(meshed);
-    }
-    let mut bounds = Vec::with_capacity(def.bounds.len());
-    for &b in &def.bounds {
-        bounds.push(
-            builder
-                .polygon_on(b, def.step, def.bbox, &mut surface)
-                .map_err(build_failed)?
-                .points,
-        );
-    }
-    let failed = |e: &MarchError| {
-        let d = messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(e));
-        // A polygon too coarse for the surface: the curve it was sampled from (a cut
-        // polygon of `pieces` has none).
-        let curve = match e {
-            MarchError::CoarsePolygon(c) => match c.polygon {
-                PolygonRole::Front => def.front,
-                PolygonRole::Bound(i) => def.bounds.get(i).copied(),
-            },
-            _ => None,
-        };
-        match curve {
-            Some(c) => d.secondary(
-                program.curves[c.index()].span,
-                "the polygon is sampled from this curve",
-            ),
-            None => d,
-        }
-    };
-    let settings = march_settings(def);
-    let mut warnings = Vec::new();
-    let start = match (def.front, def.start, def.bbox) {
-        (Some(front), _, _) => Start::Front(
-            builder
-                .polygon_on(front, def.step, def.bbox, &mut surface)
-                .map_err(build_failed)?
-                .points,
-        ),
-        (None, Some(p), _) => {
-            let sp = surface_point_near(&mut surface, p, def.step, &settings.surface_point)
-                .map_err(|e| {
-                    messages::mesh_failed(&def.name, def.span, &e.to_string(), Some(START_HELP))
-                })?;
-            Start::Point(sp.point)
-        }
-        (None, None, Some(bbox)) if bounds.is_empty() => {
-            let marching = Marching {
-                step: def.step,
-                max_triangles: def.max_triangles,
-                tolerance: def.tolerance,
-                uniform: def.uniform,
-            };
-            let found = components::mesh_components_forked(
-                &mut surface,
-                &fork,
-                marching,
-                bbox,
-                &settings,
-                &SearchSettings::default(),
-            )
-            .map_err(|e| match &e {
-                SearchError::March { source, .. } => {
-                    messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(source))
-                }
-                SearchError::CellBudget { .. } => messages::mesh_failed(
-                    &def.name,
-                    def.span,
-                    &e.to_string(),
-                    Some("raise `max_triangles` if the surface is this large at this step; else a smaller `box` around the part to mesh"),
-                ),
-                _ => messages::mesh_failed(&def.name, def.span, &e.to_string(), None),
-            })?;
-            warnings.extend(found.warnings.iter().map(ToString::to_string));
-            warnings.extend(found.march_warnings);
-            return Ok(finish(
-                program,
-                source,
-                def,
-                &mut surface,
-                (found.mesh, None),
-                found.max_chord_error,
-                warnings,
-                started,
-            ));
-        }
-        // sema requires one of them; a program built elsewhere may not.
-        (None, None, _) => {
-            let why = if def.bbox.is_some() {
-                "`bounds` need a `start` or a `front` to begin from"
-            } else {
-                "it has neither `start`, `front` nor `box`"
-            };
-            return Err(messages::mesh_failed(&def.name, def.span, why, None));
-        }
-    };
-    let input = MarchInput {
-        step: def.step,
-        start,
-        bounds,
-        bbox: def.bbox,
-        max_triangles: def.max_triangles,
-        tolerance: def.tolerance,
-        uniform: def.uniform,
-    };
-    // A large component from a start point is marched in pieces on the pool's threads
-    // (`survey::pieces`); not a surface with creases, whose pieces are its smooth forms.
-    let fork: Option<&crate::surface::Fork<'_>> =
-        if creased.is_none() { Some(&fork) } else { None };
-    let pieced = pieces::march(&mut surface, fork, &input, &settings, Some(progress))
-        .map_err(|e| failed(&e))?;
-    let marched = pieced.marched;
-    if let Some(c) = creased.as_mut() {
-        creases::check(c, def, &marched.mesh)?;
-    }
-    warnings.extend(marched.warnings);
-    let mut meshed = finish(
-        program,
-        source,
-        def,
-        &mut surface,
-        (marched.mesh, pieced.topology),
-        marched.max_chord_error,
-        warnings,
-        started,
-    );
-    meshed.pieces = pieced.pieces;
-    Ok(meshed)
-}
-
-/// What the user may change when no surface point is found near `start`.
-const START_HELP: &str = "move `start` nearer the surface, or give the mesh a `box` and no `start` to mesh every component in it";
-
-/// The meshed block with its report; the mesh comes with its topology where the march
-/// computed it already (the join of pieces).
-#[allow(clippy::too_many_arguments)]
-fn finish(
-    program: &Program,
-    source: &str,
-    def: &MeshDef,
-    surface: &mut CompiledSurface,
-    (mesh, topology): (Mesh, Option<Topology>),
-    max_chord_error: f64,
-    warnings: Vec<String>,
-    started: Instant,
-) -> Meshed {
-    let report = MeshReport::new(&mesh, surface, topology);
-    Meshed {
-        name: def.name.clone(),
-        surface: surface_name(program, source, &def.surface),
-        step: def.step,
-        bbox: def.bbox,
-        mesh,
-        report,
-        max_chord_error,
-        warnings,
-        flipped: false,
-        creases: None,
-        pieces: 1,
-        seconds: started.elapsed().as_secs_f64(),
-    }
-}
-
-/// What the user may change when the marcher stops with `e`.
-fn march_help(e: &MarchError) -> Option<&'static str> {
-    Some(match e {
-        MarchError::Refining { source, .. } => return march_help(source),
-        MarchError::TooManyTriangles { .. } => {
-            "raise `max_triangles` if the surface is this large at this step; else look where the front was last advanced: a smaller `step` there, or a `box` around the part to mesh"
-        }
-        MarchError::Unbounded { .. } => {
-            "add a `box` around the part to mesh (a closed surface this large needs one too); if a `front` or `bounds` polygon should close the mesh, it may be walked the wrong way (see `reverse`)"
-        }
-        MarchError::Overlapping { .. } => {
-            "two sheets of the surface come closer there than the step: use a smaller `step`, or a `box` that keeps the mesh away from that place"
-        }
-        MarchError::Start { .. } | MarchError::StartOutsideBox { .. } => {
-            "move `start` nearer the surface (and inside the `box`)"
-        }
-        MarchError::NoSignChange { .. } => {
-            "surfc meshes the boundary between f < 0 and f > 0: write the surface so that f changes sign on it (`g`, not `g^2` or `abs(g)`); a cusp or a crossing cannot be marched through, so keep it out of the `box`"
-        }
-        MarchError::CoarsePolygon(_) => {
-            "the curve's polygon is sampled at `step`: a smaller `step` (at most twice the local step named here), or `segments:` for a circle; a larger `tolerance` lets the local step grow where it comes from the surface's curvature"
-        }
-        MarchError::Unverified { .. } => {
-            "without `uniform: true` the local step refines there; else a smaller `step` (or, for a coarse but right mesh, a larger `tolerance`); `SURFC_TRACE=1` shows each refinement"
-        }
-        MarchError::NewPoint { .. } | MarchError::Stalled { .. } => {
-            "a smaller `step` may get past small features or a singular point; a `box` can keep the mesh away from it"
-        }
-        MarchError::HiddenCrease { .. } => {
-            "creases are traced where `min`, `max`, `abs` or a sharp boolean or primitive is reached from the outside of the formula through sums, constant factors and smooth booleans; one inside another function (`exp`, `sin`, a product) hides its edges: keep sharp parts outside such functions, or round the edge with a smooth boolean (docs/creases.md)"
-        }
-        MarchError::PolygonTooShort { .. }
-        | MarchError::PolygonSpacing { .. }
-        | MarchError::PolygonOffSurface { .. }
-        | MarchError::PolygonGradient { .. } => {
-            "a front or bound must lie on the mesh's surface, its vertices about `step` apart"
-        }
-        _ => return None,
-    })
-}
-
-/// The name of a surface as the user wrote it: its name, or the text of an expression.
-fn surface_name(program: &Program, source: &str, r: &SurfaceRef) -> String {
-    match r {
-        SurfaceRef::Surface(id) => program.surfaces[id.index()].name.clone(),
-        SurfaceRef::Patch(id) => program.patches[id.index()].name.clone(),
-        SurfaceRef::Anonymous(e) => source
-            .get(e.span.range())
-            .unwrap_or("<expression>")
-            .to_string(),
-    }
-}

@@ -6,10 +6,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-pub(crate) mod build;
 mod bytecode;
 mod check;
-mod creases;
 mod eval;
 mod fmt;
 pub(crate) mod load;

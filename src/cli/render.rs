@@ -6,7 +6,8 @@
 use std::path::PathBuf;
 
 use super::load::load;
-use super::mesh::{mesh_blocks, named, select};
+use super::mesh::{mesh_blocks, select};
+use crate::pipeline::named;
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
 use crate::mesh::NamedMesh;
 use crate::mesh::read::{ReadError, read_mesh_file};

@@ -7,7 +7,7 @@
 use std::collections::HashMap;
 
 use super::tape::{Arity, Op};
-use crate::eval::ops;
+use super::ops;
 
 /// A node of the graph.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]

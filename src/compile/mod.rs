@@ -5,15 +5,14 @@
 
 pub mod ir;
 pub mod lower;
+pub mod ops;
 pub mod regalloc;
 pub mod spine;
 pub mod tape;
 
-use crate::eval::VmError;
+use crate::compile::tape::VmError;
 use crate::sema::program::{ConstId, FnId, PatchId, Program, SurfaceId, SurfaceRef};
 use crate::span::Span;
-use crate::surface::Surface;
-use crate::surface::compiled::{CompiledPatch, CompiledSurface};
 use lower::{Domain, Lowerer};
 use regalloc::AllocError;
 use tape::Tape;
@@ -176,62 +175,6 @@ pub fn lower_patch(program: &Program, id: PatchId) -> Result<Tape, CompileError>
     Ok(tape)
 }
 
-/// Builds the surface a `dist()` measures (the foot-point distance surfaces of
-/// `surface::dist`; any `Surface` in tests).
-pub type ChildFactory<'a, E> = dyn FnMut(&SurfaceRef) -> Result<Box<dyn Surface>, E> + 'a;
-
-/// Compiles surface `r`, building the surface of each `dist` child with `factory` (which may
-/// call `compile_surface` again for nested `dist`).
-pub fn compile_surface<E>(
-    program: &Program,
-    r: &SurfaceRef,
-    factory: &mut ChildFactory<'_, E>,
-) -> Result<CompiledSurface, CompileError>
-where
-    E: Into<Box<dyn std::error::Error + Send + Sync>>,
-{
-    build_lowered(lower_surface(program, r)?, factory)
-}
-
-/// A lowered tape as a surface, its `dist` children built by `factory`.
-fn build_lowered<E>(
-    lowered: Lowered,
-    factory: &mut ChildFactory<'_, E>,
-) -> Result<CompiledSurface, CompileError>
-where
-    E: Into<Box<dyn std::error::Error + Send + Sync>>,
-{
-    let mut children = Vec::with_capacity(lowered.children.len());
-    for (target, span) in &lowered.children {
-        let child = factory(target).map_err(|e| CompileError::Child {
-            span: *span,
-            source: e.into(),
-        })?;
-        children.push(child);
-    }
-    Ok(CompiledSurface::new(lowered.tape, children)?)
-}
-
-/// The spine of surface `r` with each branch compiled (its `dist` children built by
-/// `factory`), or None when the surface has no `min`, `max` or `abs` on its spine.
-pub fn compile_spine<E>(
-    program: &Program,
-    r: &SurfaceRef,
-    factory: &mut ChildFactory<'_, E>,
-) -> Result<Option<(crate::survey::spine::Spine, Vec<CompiledSurface>)>, CompileError>
-where
-    E: Into<Box<dyn std::error::Error + Send + Sync>>,
-{
-    let Some((spine, branches)) = lower_spine(program, r)? else {
-        return Ok(None);
-    };
-    let mut compiled = Vec::with_capacity(branches.len());
-    for lowered in branches {
-        compiled.push(build_lowered(lowered, factory)?);
-    }
-    Ok(Some((spine, compiled)))
-}
-
 /// Checks that surface `r` stays within the compiler's limits without compiling it to
 /// machine code: its size after inlining (`TooLarge`) and, following its `dist` targets,
 /// the depth of `dist` (`DistTooDeep`, wrapped in `Child` errors like `compile_surface`'s).
@@ -285,15 +228,6 @@ fn target_name(program: &Program, r: &SurfaceRef) -> Option<String> {
     }
 }
 
-/// Compiles patch `id`.
-pub fn compile_patch(program: &Program, id: PatchId) -> Result<CompiledPatch, CompileError> {
-    let tape = lower_patch(program, id)?;
-    let def = program
-        .patches
-        .get(id.index())
-        .ok_or(CompileError::NoSuchPatch { id })?;
-    Ok(CompiledPatch::new(tape, (def.u_range, def.v_range))?)
-}
 
 /// The listing of a lowered surface: its tape, then what each `dist` child measures.
 pub fn listing(program: &Program, lowered: &Lowered) -> String {

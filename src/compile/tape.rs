@@ -531,3 +531,10 @@ mod tests {
         );
     }
 }
+
+/// Why a VM could not be built on a tape (`eval::Vm::new`).
+#[derive(Debug, thiserror::Error)]
+pub enum VmError {
+    #[error("the tape evaluates {expected} child surfaces, but {found} were given")]
+    ChildCount { expected: usize, found: usize },
+}

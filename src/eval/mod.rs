@@ -19,14 +19,14 @@
 pub mod interval;
 pub mod interval_grad;
 pub mod native;
-pub mod ops;
 
 use glam::DVec3;
 
 use crate::compile::tape::{Arity, Op, Reg, Tape};
 use crate::values::{Surface, ValueGrad};
 pub use crate::values::{Interval, IntervalGrad};
-pub use ops::Grad;
+pub use crate::compile::ops::{self, Grad};
+pub use crate::compile::tape::VmError;
 
 /// Points per block of the gradient batch path. Measured on the genus-3 and blend benches
 /// (32 to 1024 points; with the prefetch hints and AVX-512, 64, 128, 256 and 512): long lane
@@ -106,12 +106,6 @@ impl GradLanes {
     }
 }
 
-/// Why a VM could not be built.
-#[derive(Debug, thiserror::Error)]
-pub enum VmError {
-    #[error("the tape evaluates {expected} child surfaces, but {found} were given")]
-    ChildCount { expected: usize, found: usize },
-}
 
 /// A tape with its child surfaces and its registers.
 pub struct Vm {

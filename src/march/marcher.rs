@@ -20,7 +20,7 @@ use super::{MarchError, MarchInput, PolygonRole, Start};
 use crate::mesh::Mesh;
 use crate::solve::{SurfacePoint, surface_point, tangent_frame};
 use crate::surface::Surface;
-use crate::survey::jump;
+use crate::survey::gradient_jump;
 use crate::survey::sizing::{Size, Sizing};
 
 /// Splits and unions add no triangle but retire at least two nodes from distance checks, so
@@ -261,7 +261,7 @@ impl Marcher<'_> {
         if size.floored && self.hidden_crease.is_none() && self.jump_checks < MAX_JUMP_CHECKS {
             self.jump_checks += 1;
             let reach = self.sizing.floor();
-            self.hidden_crease = jump::gradient_jump(self.surface, sp.point, (sp.t1, sp.t2), reach);
+            self.hidden_crease = gradient_jump::gradient_jump(self.surface, sp.point, (sp.t1, sp.t2), reach);
         }
         let h = match parent {
             Some(q) => {

@@ -1,10 +1,15 @@
 //! Surfaces and patches backed by compiled tapes: the [`Surface`] and [`Patch`] oracles over
-//! the evaluator of `eval`. Build them with `compile::compile_surface` / `compile_patch`.
+//! the evaluator of `eval`, and their construction from a checked program: [`compile_surface`]
+//! (the compiler's tape, each `dist` child built by a factory), [`compile_spine`] (the branches
+//! of a creased surface), [`compile_patch`].
 
 use glam::DVec3;
 
 use super::{Patch, PatchJet, Surface, ValueGrad};
 use crate::compile::tape::Tape;
+use crate::compile::{CompileError, Lowered, lower_patch, lower_spine, lower_surface};
+use crate::sema::program::{PatchId, Program, SurfaceRef};
+use crate::survey::spine::Spine;
 use crate::eval::native::NativeError;
 use crate::eval::{Engine, Grad, Interval, IntervalGrad, Vm, VmError};
 
@@ -117,4 +122,70 @@ impl Patch for CompiledPatch {
     fn domain(&self) -> ((f64, f64), (f64, f64)) {
         self.domain
     }
+}
+
+/// Builds the surface a `dist()` measures (the foot-point distance surfaces of
+/// `surface::dist`; any `Surface` in tests).
+pub type ChildFactory<'a, E> = dyn FnMut(&SurfaceRef) -> Result<Box<dyn Surface>, E> + 'a;
+
+/// Compiles surface `r`, building the surface of each `dist` child with `factory` (which may
+/// call `compile_surface` again for nested `dist`).
+pub fn compile_surface<E>(
+    program: &Program,
+    r: &SurfaceRef,
+    factory: &mut ChildFactory<'_, E>,
+) -> Result<CompiledSurface, CompileError>
+where
+    E: Into<Box<dyn std::error::Error + Send + Sync>>,
+{
+    build_lowered(lower_surface(program, r)?, factory)
+}
+
+/// A lowered tape as a surface, its `dist` children built by `factory`.
+fn build_lowered<E>(
+    lowered: Lowered,
+    factory: &mut ChildFactory<'_, E>,
+) -> Result<CompiledSurface, CompileError>
+where
+    E: Into<Box<dyn std::error::Error + Send + Sync>>,
+{
+    let mut children = Vec::with_capacity(lowered.children.len());
+    for (target, span) in &lowered.children {
+        let child = factory(target).map_err(|e| CompileError::Child {
+            span: *span,
+            source: e.into(),
+        })?;
+        children.push(child);
+    }
+    Ok(CompiledSurface::new(lowered.tape, children)?)
+}
+
+/// The spine of surface `r` with each branch compiled (its `dist` children built by
+/// `factory`), or None when the surface has no `min`, `max` or `abs` on its spine.
+pub fn compile_spine<E>(
+    program: &Program,
+    r: &SurfaceRef,
+    factory: &mut ChildFactory<'_, E>,
+) -> Result<Option<(Spine, Vec<CompiledSurface>)>, CompileError>
+where
+    E: Into<Box<dyn std::error::Error + Send + Sync>>,
+{
+    let Some((spine, branches)) = lower_spine(program, r)? else {
+        return Ok(None);
+    };
+    let mut compiled = Vec::with_capacity(branches.len());
+    for lowered in branches {
+        compiled.push(build_lowered(lowered, factory)?);
+    }
+    Ok(Some((spine, compiled)))
+}
+
+/// Compiles patch `id`.
+pub fn compile_patch(program: &Program, id: PatchId) -> Result<CompiledPatch, CompileError> {
+    let tape = lower_patch(program, id)?;
+    let def = program
+        .patches
+        .get(id.index())
+        .ok_or(CompileError::NoSuchPatch { id })?;
+    Ok(CompiledPatch::new(tape, (def.u_range, def.v_range))?)
 }

@@ -15,7 +15,7 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
-use super::components::{Cell, surface_cells};
+use super::cells::{Cell, surface_cells};
 use crate::surface::Surface;
 
 /// Cells per side of the box at most: the clusters cost a few thousand bounds, not a

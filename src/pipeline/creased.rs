@@ -8,6 +8,7 @@
 //!   crease is an error that asks for a `box`.
 
 use glam::DVec3;
+use serde::Serialize;
 
 use super::build::Builder;
 use crate::compile::CompileError;
@@ -16,9 +17,21 @@ use crate::mesh::Mesh;
 use crate::sema::program::MeshDef;
 use crate::surface::Fork;
 use crate::surface::Surface;
-use crate::survey::components::{Candidates, Marching, SearchSettings, surface_cells};
-use crate::survey::creases::{self, CreaseError, CreaseSettings, CreasedMesh};
+use super::components::{Marching, SearchSettings};
+use crate::survey::cells::{Candidates, surface_cells};
+use super::crease_net::{self, CreaseError, CreaseSettings, CreasedMesh};
 use crate::survey::spine::Creased;
+
+/// What a mesh made crease by crease (`pipeline::crease_net`) has of its creases.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct CreaseCounts {
+    /// Crease curves traced in the box (closed loops and corner-to-corner curves).
+    pub creases: usize,
+    /// Corners where three pieces meet.
+    pub corners: usize,
+    /// Vertices of the mesh on a crease polygon (corners included), each once.
+    pub crease_vertices: usize,
+}
 
 const HELP: &str = "give the mesh a `box` that holds the whole surface (and no `front`): a surface with creases is then meshed piece by piece up to its creases";
 
@@ -54,13 +67,13 @@ pub(super) fn mesh(
         tolerance: def.tolerance,
         uniform: def.uniform,
     };
-    let mut out = creases::mesh_creased(
+    let mut out = crease_net::mesh_creased(
         creased,
         whole,
         Some(fork),
         marching,
         bbox,
-        &super::mesh::march_settings(def),
+        &super::build::march_settings(def),
         &SearchSettings::default(),
         &CreaseSettings::default(),
     )
@@ -74,7 +87,7 @@ pub(super) fn mesh(
 /// The crease counts of `--json` for a mesh made crease by crease: creases and corners as
 /// traced, and the mesh's vertices that lie on a crease polygon (with a `start`, only the
 /// part kept has its vertices counted).
-pub(super) fn counts(out: &CreasedMesh) -> super::mesh::CreaseCounts {
+pub(super) fn counts(out: &CreasedMesh) -> CreaseCounts {
     let bits = |p: &DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
     let in_mesh: std::collections::HashSet<[u64; 3]> = out.mesh.vertices.iter().map(bits).collect();
     let on_creases: std::collections::HashSet<[u64; 3]> = out
@@ -84,7 +97,7 @@ pub(super) fn counts(out: &CreasedMesh) -> super::mesh::CreaseCounts {
         .map(bits)
         .filter(|b| in_mesh.contains(b))
         .collect();
-    super::mesh::CreaseCounts {
+    CreaseCounts {
         creases: out.creases,
         corners: out.corners,
         crease_vertices: on_creases.len(),
@@ -127,7 +140,7 @@ const DERIVED_REACH: f64 = 1e3;
 
 /// Checks a mesh marched without the crease search: no triangle across a crease.
 pub(super) fn check(creased: &mut Creased, def: &MeshDef, mesh: &Mesh) -> Result<(), Diagnostic> {
-    creases::check_one_piece_each(creased, mesh, def.step, &CreaseSettings::default())
+    crease_net::check_one_piece_each(creased, mesh, def.step, &CreaseSettings::default())
         .map_err(|e| failed(def, &e))
 }
 

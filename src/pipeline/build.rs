@@ -10,11 +10,12 @@ use glam::DVec3;
 use crate::compile::{self, CompileError};
 use crate::diag::{Diagnostic, messages};
 use crate::eval::Engine;
+use crate::march::MarchSettings;
 use crate::sema::program::{CurveId, CurveKind, Program, SurfaceRef};
 use crate::solve::curve::{self, CurveError, Polygon};
 use crate::solve::tolerance::{FootTolerance, PatchFootTolerance, SurfacePointTolerance};
 use crate::span::Span;
-use crate::surface::compiled::CompiledSurface;
+use crate::surface::compiled::{self, CompiledSurface};
 use crate::surface::{ImplicitDist, PatchDist, Surface};
 
 /// Why a surface or curve could not be built.
@@ -80,7 +81,7 @@ impl<'p> Builder<'p> {
         scale: f64,
         outer: &mut Vec<String>,
     ) -> Result<CompiledSurface, CompileError> {
-        let mut surface = compile::compile_surface(self.program, r, &mut |target| {
+        let mut surface = compiled::compile_surface(self.program, r, &mut |target| {
             self.dist_child(target, scale, outer)
         })?;
         surface.set_engine(self.engine);
@@ -95,7 +96,7 @@ impl<'p> Builder<'p> {
         scale: f64,
     ) -> Result<Option<Spined>, CompileError> {
         let mut outer = Vec::new();
-        let found = compile::compile_spine(self.program, r, &mut |target| {
+        let found = compiled::compile_spine(self.program, r, &mut |target| {
             self.dist_child(target, scale, &mut outer)
         })?;
         let Some((spine, branches)) = found else {
@@ -124,7 +125,7 @@ impl<'p> Builder<'p> {
         };
         let child: Box<dyn Surface> = match target {
             SurfaceRef::Patch(id) => Box::new(PatchDist::with_tolerance(
-                Box::new(compile::compile_patch(self.program, *id)?),
+                Box::new(compiled::compile_patch(self.program, *id)?),
                 PatchFootTolerance {
                     foot,
                     ..PatchFootTolerance::default()
@@ -184,7 +185,7 @@ impl<'p> Builder<'p> {
             }
             .map_err(fail)?,
             CurveKind::Boundary(patch) => {
-                let mut patch = compile::compile_patch(self.program, *patch)?;
+                let mut patch = compiled::compile_patch(self.program, *patch)?;
                 curve::boundary(&mut patch, step).map_err(fail)?
             }
             CurveKind::Reverse(inner) => curve::reverse(&self.curve(*inner, step, bbox)?),
@@ -262,5 +263,14 @@ pub(crate) fn limit_diagnostic(e: &CompileError) -> Option<Diagnostic> {
             Some(messages::dist_too_deep(span, *limit, chain))
         }
         _ => None,
+    }
+}
+
+/// The marcher's settings for a mesh block: the defaults, with what the block asks for.
+pub fn march_settings(def: &crate::sema::program::MeshDef) -> MarchSettings {
+    let defaults = MarchSettings::default();
+    MarchSettings {
+        quality_ratio: def.radius_ratio.unwrap_or(defaults.quality_ratio),
+        ..defaults
     }
 }

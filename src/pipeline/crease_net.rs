@@ -26,8 +26,8 @@ use std::collections::HashMap;
 use glam::{DMat3, DVec3};
 
 use super::components::{self, Marching, SearchError, SearchSettings};
-use super::sizing::Sizing;
-use super::spine::Creased;
+use crate::survey::sizing::Sizing;
+use crate::survey::spine::Creased;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
 use crate::mesh::bits::BitsHash;

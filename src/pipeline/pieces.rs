@@ -39,8 +39,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::creases::merge_at;
-use super::sizing::{Sizing, SizingSettings};
+use super::crease_net::merge_at;
+use crate::survey::sizing::{Sizing, SizingSettings};
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Marched, Start};
 use crate::mesh::Mesh;
 use crate::mesh::check::intersecting_pairs;
@@ -702,7 +702,7 @@ fn band(mesh: &Mesh, axis: usize, planes: &[f64], reach: f64) -> Vec<[u32; 2]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::survey::creases::merge;
+    use crate::pipeline::crease_net::merge;
 
     /// Two caps over one cut loop (a hexagon in the plane y = 0) and a third slab over a
     /// second loop: `join` gives `merge`'s mesh, bit for bit, normals of the shared vertices
