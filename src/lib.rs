@@ -69,6 +69,8 @@ pub mod survey;
 #[doc(hidden)]
 pub mod syntax;
 #[doc(hidden)]
+pub mod trace;
+#[doc(hidden)]
 pub mod values;
 
 /// What the unit tests share (a seeded random sampler).

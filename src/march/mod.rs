@@ -423,7 +423,7 @@ pub fn march_verified(
                 rounds: round,
             });
         }
-        if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
+        if crate::trace::enabled() {
             match flaws.first() {
                 Some(first) => eprintln!(
                     "march: verification round {round}: {} flaw(s), first {} at {}; refining",
@@ -508,7 +508,7 @@ fn improve(
     let mut project = |s: &mut dyn Surface, q: DVec3| {
         crate::solve::surface_point_and_normal(s, q, step, &sp_tol).ok()
     };
-    let trace = std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0");
+    let trace = crate::trace::enabled();
     // For the trace only: a whole-mesh scan the stage itself does not need.
     let below_before = trace.then(|| {
         let sin_bad = limits.angle.sin();

@@ -403,7 +403,7 @@ fn search_components(
         queue.cells = walk.visited;
         search.drain(queue)?;
     }
-    if trace() {
+    if crate::trace::enabled() {
         eprintln!(
             "components: {} cells bounded, {refined} leaves walked again finer, {} components",
             walk.visited, search.out.components
@@ -732,7 +732,7 @@ impl Search<'_> {
                         q.clusters = (q.fork)().and_then(|mut s| {
                             ahead::Clusters::new(&mut *s, self.bbox, self.step, budget)
                         });
-                        if trace() {
+                        if crate::trace::enabled() {
                             eprintln!(
                                 "components: clusters of the surface's cells (at most {budget}) {} in {:.3} s",
                                 if q.clusters.is_some() {
@@ -799,7 +799,7 @@ impl Search<'_> {
         while q.next < q.seeds.len() {
             self.next_of(q)?;
         }
-        if trace() {
+        if crate::trace::enabled() {
             eprintln!(
                 "components: {} seeds, {} marches ahead of their turn, {} of them taken",
                 q.seeds.len(),
@@ -925,10 +925,6 @@ const LOOKAHEAD: usize = 32;
 /// The clusters may bound at least this many cells, however few the walk has bounded.
 const MIN_CLUSTER_CELLS: usize = 256;
 
-/// Whether `SURFC_TRACE` asks for a trace.
-fn trace() -> bool {
-    std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0")
-}
 
 /// A kept leaf is walked again with leaves of this many local steps (at the finest of its
 /// seeds) when that is below half the leaf: cells of about the local step, as the marcher

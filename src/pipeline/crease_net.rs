@@ -188,7 +188,7 @@ pub fn mesh_creased(
         traced: Vec::new(),
         near: HashMap::new(),
     };
-    let trace = std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0");
+    let trace = crate::trace::enabled();
     let cells = t.cells(whole)?;
     if trace {
         eprintln!(

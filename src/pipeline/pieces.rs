@@ -145,7 +145,7 @@ pub fn march(
     settings: &MarchSettings,
     progress: Option<&AtomicU64>,
 ) -> Result<Pieced, MarchError> {
-    let trace = std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0");
+    let trace = crate::trace::enabled();
     let eligible = matches!(input.start, Start::Point(_))
         && input.bounds.is_empty()
         && input.bbox.is_none()
@@ -594,7 +594,7 @@ fn march_pieces(
             return Err(NoCut::Ratio { mean, bar });
         }
     }
-    if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
+    if crate::trace::enabled() {
         eprintln!(
             "pieces: joined and checked in {:.3} s",
             joining.elapsed().as_secs_f64()

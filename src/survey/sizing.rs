@@ -206,7 +206,7 @@ impl Sizing {
             .zip(made)
             .filter(|&(&p, &h)| field.bound(p, self.step) < keep * h)
             .count();
-        if std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0") {
+        if crate::trace::enabled() {
             eprintln!(
                 "sizing: {steep} of {} point(s) made with a step over {:.2} times the field graded both ways",
                 points.len(),
