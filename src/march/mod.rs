@@ -11,7 +11,7 @@
 //! bit-identical coordinates, first the front's, then each bound's in the order given;
 //! vertices with bit-identical coordinates in several polygons are one mesh vertex.
 //!
-//! After the march the quality stage (`quality`) flips edges to the restricted Delaunay
+//! After the march the quality stage (`improve`) flips edges to the restricted Delaunay
 //! condition, smooths free vertices on the surface and inserts off-centres where a triangle
 //! stays below `MarchSettings::quality_angle`, keeping the topology and polygon vertices; the
 //! verification then checks the improved mesh.
@@ -27,8 +27,8 @@
 pub mod angle;
 pub mod guard;
 pub mod hash;
+mod improve;
 mod marcher;
-mod quality;
 pub mod ring;
 pub mod settings;
 pub mod verify;
@@ -262,7 +262,7 @@ pub fn march(
 /// `MarchSettings::refine_rounds` are spent; then the first flaw is the error.
 ///
 /// `fork`, where given, makes fresh oracles of `surface` for the quality stage's centroid
-/// round, whose blocks run on the rayon pool (`quality::Stage::centroid_round`); without it
+/// round, whose blocks run on the rayon pool (`improve::Stage::centroid_round`); without it
 /// the blocks run one after another on `surface`. `progress`, where given, receives the
 /// number of triangles made so far as the march goes (for a progress bar on another thread;
 /// relaxed stores, one per triangle).
@@ -484,7 +484,7 @@ struct Leftovers {
     held: Option<(usize, f64, DVec3)>,
 }
 
-/// The quality stage (`quality.rs`) over a finished triangulation; what it did goes to
+/// The quality stage (`improve/`) over a finished triangulation; what it did goes to
 /// `SURFC_TRACE`. Returns the triangles it left below its angle.
 fn improve(
     surface: &mut dyn Surface,
@@ -497,7 +497,7 @@ fn improve(
     if settings.quality_angle <= 0.0 {
         return Leftovers::default();
     }
-    let limits = quality::Limits {
+    let limits = improve::Limits {
         angle: settings.quality_angle.min(std::f64::consts::FRAC_PI_3),
         rounds: settings.quality_rounds,
         insert_fraction: settings.quality_insert,
@@ -519,12 +519,12 @@ fn improve(
             .iter()
             .filter(|t| {
                 let [a, b, c] = corners(t);
-                quality::min_sin(a, b, c) < sin_bad
+                improve::min_sin(a, b, c) < sin_bad
             })
             .count()
     });
     let started = std::time::Instant::now();
-    let report = quality::Stage::new(
+    let report = improve::Stage::new(
         &mut m.mesh.vertices,
         &mut m.mesh.normals,
         &mut m.mesh.triangles,

@@ -45,7 +45,7 @@ pub struct MarchSettings {
     /// face (a border point), so that no edge between it and the border shrinks to a sliver.
     /// Default 0.3.
     pub box_snap: f64,
-    /// The quality stage after the march (`quality.rs`): the smallest angle it aims at;
+    /// The quality stage after the march (`improve/`): the smallest angle it aims at;
     /// triangles below it after flips and smoothing get a new vertex. Default 0.524 rad
     /// (30.02°, CGAL's bound of DESIGN.md §6 with a margin for rounding). 0 turns the stage
     /// off.

@@ -1,0 +1,202 @@
+//! Step 2 of the marching method: a front node near another node of the actual front, or
+//! of another front (closer than the near distance, normals agreeing, each inside the
+//! other's front angle), splits the front in two or unites the two fronts.
+
+use std::cmp::Reverse;
+
+use glam::DVec3;
+
+use super::Marcher;
+use crate::march::MarchError;
+use crate::march::angle::{ccw, polar};
+use crate::march::ring::{FrontId, NodeId};
+
+impl Marcher<'_> {
+    /// Step 2 over the nodes that are new or changed. Splits or unites at the first near
+    /// pair found and returns the new actual front.
+    pub(super) fn distance_checks(
+        &mut self,
+        actual: FrontId,
+    ) -> Result<Option<FrontId>, MarchError> {
+        while let Some(a) = self.pending.pop() {
+            self.pending_flag[a.index()] = false;
+            if !self.rings.alive(a) || !self.checkable[a.index()] || self.rings.front(a) != actual {
+                continue;
+            }
+            let Some(b) = self.near_partner(a) else {
+                continue;
+            };
+            return if self.rings.front(b) == actual {
+                Ok(Some(self.split(a, b)))
+            } else {
+                self.unite(a, b).map(Some)
+            };
+        }
+        Ok(None)
+    }
+
+    /// The nearest node b that is near a in the sense of Step 2: closer than the near
+    /// distance, not a or its (second) neighbour, normals agreeing, and each inside the
+    /// other's front angle (Remark 3: otherwise the two are separated by meshed area).
+    fn near_partner(&mut self, a: NodeId) -> Option<NodeId> {
+        let pa_id = self.rings.point(a);
+        let pa = self.pos[pa_id.index()];
+        let (ap, an) = (self.rings.prev(a), self.rings.next(a));
+        let (ap_id, an_id) = (self.rings.point(ap), self.rings.point(an));
+        // Near within the smaller of the two local steps: with the larger, fronts across a
+        // plate's tight rim were joined (docs/marcher.md, the local step). A given polygon
+        // with edges longer than twice the local step beside it can thus be passed between
+        // its vertices: the verification lays such flaws to the polygon (`CoarsePolygon`).
+        let ha = self.h[pa_id.index()];
+        let near = self.s.near_distance;
+        let mut cands = std::mem::take(&mut self.scratch);
+        cands.clear();
+        self.hash.for_near(pa, |b, pb, hb| {
+            let r = near * ha.min(hb);
+            if pb.distance_squared(pa) < r * r {
+                cands.push((b, pb));
+            }
+        });
+        let (t1a, t2a, na) = (
+            self.t1[pa_id.index()],
+            self.t2[pa_id.index()],
+            self.normal[pa_id.index()],
+        );
+        // Computed at the first candidate that passes the cheap tests (most checks have none).
+        let mut w1a = None;
+        let mut best: Option<(f64, NodeId)> = None;
+        for &(b, pb) in &cands {
+            let pb_id = self.rings.point(b);
+            if b == a || pb_id == pa_id || pb_id == ap_id || pb_id == an_id {
+                continue;
+            }
+            let (bp, bn) = (self.rings.prev(b), self.rings.next(b));
+            if self.rings.point(bp) == pa_id || self.rings.point(bn) == pa_id {
+                continue;
+            }
+            if self.rings.front(b) == self.rings.front(a)
+                && (b == self.rings.next(an) || b == self.rings.prev(ap))
+            {
+                continue;
+            }
+            let bi = pb_id.index();
+            if na.dot(self.normal[bi]) < self.s.near_normal_cos {
+                continue;
+            }
+            let w1 = *w1a.get_or_insert_with(|| polar(pa, t1a, t2a, self.pos[ap_id.index()]));
+            let th = ccw(w1, polar(pa, t1a, t2a, pb));
+            if !(th > 0.0 && th < self.angle[a.index()]) {
+                continue;
+            }
+            let w1b = polar(pb, self.t1[bi], self.t2[bi], self.p(bp));
+            let thb = ccw(w1b, polar(pb, self.t1[bi], self.t2[bi], pa));
+            if !(thb > 0.0 && thb < self.angle[b.index()]) {
+                continue;
+            }
+            let d = pa.distance(pb);
+            if best.is_some_and(|(bd, bb)| (d, b) >= (bd, bb)) || !self.same_sheet(pa, pb) {
+                continue;
+            }
+            best = Some((d, b));
+        }
+        self.scratch = cands;
+        best.map(|(_, b)| b)
+    }
+
+    /// Do two near front points see each other across the surface, not across a gap between
+    /// two sheets? The midpoint of their chord must lie within `near_midpoint`·|a − b| of
+    /// the surface (linear estimate |f|/|∇f|): on one sheet it is the chord's sagitta, across
+    /// a gap half the gap.
+    fn same_sheet(&mut self, pa: DVec3, pb: DVec3) -> bool {
+        let vg = self.surface.value_gradient(0.5 * (pa + pb));
+        let g = vg.gradient.length();
+        g > 0.0 && vg.value.abs() <= self.s.near_midpoint * pa.distance(pb) * g
+    }
+
+    /// Step 2, first case: a and b of the actual front are near. The shorter arc becomes a
+    /// new front and the actual one; the ends take no part in later distance checks.
+    fn split(&mut self, a: NodeId, b: NodeId) -> FrontId {
+        let old = self.rings.front(a);
+        let (x, y) = if self.rings.forward_arc_shorter(a, b) {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        let (nf, x2, y2) = self.rings.split(x, y);
+        self.ensure_heap(nf);
+        self.grow();
+        for n in [x, y, x2, y2] {
+            self.uncheck(n);
+        }
+        for n in self.rings.walk(nf) {
+            if n != x2 && n != y2 && !self.border[self.rings.point(n).index()] {
+                let e = Reverse((
+                    self.angle[n.index()].to_bits(),
+                    n.0,
+                    self.version[n.index()],
+                ));
+                self.heaps[nf.index()].push(e);
+            }
+        }
+        for n in [x, y, x2, y2] {
+            self.update_angle(n);
+        }
+        if self.trace {
+            eprintln!(
+                "march: split front {} at {} – {}: new front {} of {} points, old keeps {}",
+                old.0,
+                self.p(x),
+                self.p(y),
+                nf.0,
+                self.rings.len(nf),
+                self.rings.len(old)
+            );
+        }
+        self.passive.push(old);
+        nf
+    }
+
+    /// Step 2, second case: a of the actual front is near b of another front. The fronts
+    /// are united with a and b doubled; the first appearances are completed at once, the
+    /// smaller front angle first, and the second ones take no part in later distance checks.
+    fn unite(&mut self, a: NodeId, b: NodeId) -> Result<FrontId, MarchError> {
+        let fa = self.rings.front(a);
+        let fb = self.rings.front(b);
+        let other: Vec<NodeId> = self.rings.walk(fb);
+        let (b1, a2) = self.rings.unite(a, b);
+        self.grow();
+        let moved = std::mem::take(&mut self.heaps[fb.index()]);
+        self.heaps[fa.index()].extend(moved);
+        for n in [a, b, b1, a2] {
+            self.uncheck(n);
+        }
+        for n in other {
+            if self.checkable[n.index()] {
+                self.mark_pending(n);
+            }
+        }
+        for n in [a, b, b1, a2] {
+            self.update_angle(n);
+        }
+        if self.trace {
+            eprintln!(
+                "march: unite front {} with front {} at {} – {} ({} points)",
+                fa.0,
+                fb.0,
+                self.p(a),
+                self.p(b),
+                self.rings.len(fa)
+            );
+        }
+        let (first, second) = if self.angle[a.index()] <= self.angle[b1.index()] {
+            (a, b1)
+        } else {
+            (b1, a)
+        };
+        self.complete(first)?;
+        if self.rings.alive(second) && self.rings.len(fa) > 3 {
+            self.complete(second)?;
+        }
+        Ok(fa)
+    }
+}
