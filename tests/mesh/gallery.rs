@@ -254,12 +254,49 @@ fn examples() -> Vec<PathBuf> {
     files
 }
 
-fn mesh_example(path: &Path) -> (String, Vec<Meshed>) {
-    let source = std::fs::read_to_string(path).unwrap();
-    match mesh_source(&source) {
-        Ok(m) => (source, m),
-        Err(diags) => panic!("{} does not mesh: {diags:#?}", path.display()),
-    }
+/// One gallery file meshed by the library form of `surfc mesh` (the default engine).
+pub struct Example {
+    pub path: PathBuf,
+    pub source: String,
+    pub meshed: Vec<Meshed>,
+    /// How long the meshing took.
+    pub seconds: f64,
+}
+
+/// Every gallery file, meshed once per test process: the gallery's tests here and in
+/// `dist_gallery` share the meshes (`intersecting_patches` alone takes seconds), so each is
+/// made once, by whichever test asks first.
+pub fn gallery_meshes() -> &'static [Example] {
+    static MESHES: std::sync::OnceLock<Vec<Example>> = std::sync::OnceLock::new();
+    MESHES.get_or_init(|| {
+        examples()
+            .into_iter()
+            .map(|path| {
+                let source = std::fs::read_to_string(&path).unwrap();
+                let started = std::time::Instant::now();
+                let meshed = match mesh_source(&source) {
+                    Ok(m) => m,
+                    Err(diags) => panic!("{} does not mesh: {diags:#?}", path.display()),
+                };
+                let seconds = started.elapsed().as_secs_f64();
+                Example {
+                    path,
+                    source,
+                    meshed,
+                    seconds,
+                }
+            })
+            .collect()
+    })
+}
+
+/// The gallery file `path` (a path ending in its file name), meshed: see [`gallery_meshes`].
+pub fn gallery_mesh(path: &Path) -> &'static Example {
+    let name = path.file_name();
+    gallery_meshes()
+        .iter()
+        .find(|e| e.path.file_name() == name)
+        .unwrap_or_else(|| panic!("{} is not a gallery file", path.display()))
 }
 
 /// Both engines mesh every example alike: the same vertices, normals and triangles, bit for
@@ -270,10 +307,15 @@ fn engines_mesh_the_gallery_alike() {
     let bits = |v: &[glam::DVec3]| -> Vec<[u64; 3]> {
         v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
     };
-    for path in examples() {
-        let source = std::fs::read_to_string(&path).unwrap();
-        let [native, interpreted] = [Engine::Native, Engine::Interpreter]
-            .map(|engine| mesh_source_with(&source, engine).expect("the example meshes"));
+    assert_eq!(
+        Engine::default(),
+        Engine::Native,
+        "the shared meshes are the native ones"
+    );
+    for example in gallery_meshes() {
+        let (path, native) = (&example.path, &example.meshed);
+        let interpreted =
+            mesh_source_with(&example.source, Engine::Interpreter).expect("the example meshes");
         assert_eq!(native.len(), interpreted.len(), "{}", path.display());
         for (a, b) in native.iter().zip(&interpreted) {
             let what = format!("{}: mesh `{}`", path.display(), a.name);
@@ -306,9 +348,10 @@ fn assert_passes(path: &Path, m: &Meshed) {
 #[test]
 fn gallery() {
     insta::glob!("../../examples", "*.surf", |path| {
-        let (source, meshed) = mesh_example(path);
+        let example = gallery_mesh(path);
+        let source = &example.source;
         let mut report = String::new();
-        for m in &meshed {
+        for m in &example.meshed {
             assert_passes(path, m);
             report.push_str(&summary(m));
         }
@@ -321,7 +364,7 @@ fn gallery() {
 /// The pictures of docs/gallery.md: one per mesh block (one per file for the files whose
 /// meshes form a net), each `surfc render`'s PNG at its defaults but 640x480. The test fails
 /// when a committed picture or the page differs from what the examples give now;
-/// `SURFC_UPDATE_GALLERY=1 cargo test --release --test gallery gallery_pictures` regenerates
+/// `SURFC_UPDATE_GALLERY=1 cargo test --release --test mesh gallery_pictures` regenerates
 /// them all.
 #[test]
 fn gallery_pictures() {
@@ -334,11 +377,14 @@ fn gallery_pictures() {
     };
     let mut page = String::from(GALLERY_HEADER);
     let mut stale = Vec::new();
-    for path in examples() {
-        let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
-        let started = std::time::Instant::now();
-        let (source, meshed) = mesh_example(&path);
-        let seconds = started.elapsed().as_secs_f64();
+    for example in gallery_meshes() {
+        let stem = example
+            .path
+            .file_stem()
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        let (source, meshed, seconds) = (&example.source, &example.meshed, example.seconds);
         let groups: Vec<(String, Vec<&Meshed>)> = if NETS.contains(&stem.as_str()) {
             vec![(stem.clone(), meshed.iter().collect())]
         } else {
@@ -399,7 +445,7 @@ fn gallery_pictures() {
     }
     assert!(
         stale.is_empty(),
-        "out of date with the examples (regenerate with `SURFC_UPDATE_GALLERY=1 cargo test --release --test gallery gallery_pictures`): {stale:#?}"
+        "out of date with the examples (regenerate with `SURFC_UPDATE_GALLERY=1 cargo test --release --test mesh gallery_pictures`): {stale:#?}"
     );
 }
 
@@ -410,6 +456,6 @@ The examples of the paper's Sect. 3 (DESIGN.md §5), meshed by `surfc mesh` and 
 `surfc render` (640x480, view 30,25). Each picture is exactly what\n\
 `surfc render examples/FILE.surf -o PICTURE.png --size 640x480 [--only MESH]` draws. The page\n\
 and every picture are regenerated by\n\n\
-```\nSURFC_UPDATE_GALLERY=1 cargo test --release --test gallery gallery_pictures\n```\n\n\
+```\nSURFC_UPDATE_GALLERY=1 cargo test --release --test mesh gallery_pictures\n```\n\n\
 and the same test, run without the variable, fails when any of them is out of date. Times are\n\
 those of the run that made the page (release build, one core, all meshes of the file).\n\n";

@@ -116,8 +116,8 @@ fn genus3_chord_error_within_a_tenth_of_the_step() {
 
 /// The sizing's cost where it never binds: the sphere r = 2 at step 0.01 (≈ 1.3 M
 /// triangles) with the local step and with `uniform: true`, in one run. Run with
-/// `cargo test --release --test march_thin -- --ignored --nocapture` (benches/march.rs has
-/// the same pair under criterion).
+/// `cargo test --release --test mesh march_thin:: -- --ignored --nocapture`
+/// (benches/march.rs has the same pair under criterion).
 #[test]
 #[ignore]
 fn sphere_local_step_cost() {

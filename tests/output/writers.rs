@@ -404,8 +404,14 @@ fn import_glb(bytes: &[u8]) -> (gltf::Document, Vec<u8>) {
     let glb = gltf::Gltf::from_slice(bytes).expect("gltf reads the GLB");
     let blob = glb.blob.clone().unwrap_or_default();
     for buffer in glb.document.buffers() {
-        assert!(matches!(buffer.source(), gltf::buffer::Source::Bin), "a buffer outside the GLB");
-        assert!(buffer.length() <= blob.len(), "the binary chunk is shorter than its buffer");
+        assert!(
+            matches!(buffer.source(), gltf::buffer::Source::Bin),
+            "a buffer outside the GLB"
+        );
+        assert!(
+            buffer.length() <= blob.len(),
+            "the binary chunk is shorter than its buffer"
+        );
     }
     (glb.document, blob)
 }
