@@ -1,7 +1,7 @@
 //! Pictures and mesh files of a 1.3 M-triangle sphere (an icosahedron subdivided 8 times): the
 //! renderer should draw it at 800×600 in about a second, and the writers stream it quickly.
 
-#[path = "../tests/output_fixtures/mod.rs"]
+#[path = "../tests/output/output_fixtures.rs"]
 mod output_fixtures;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};

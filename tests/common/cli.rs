@@ -1,8 +1,10 @@
-//! Running the built `surfc` binary in a scratch directory, for tests through the command
-//! line.
+//! Running the built `surfc` binary, for tests through the command line: the one runner
+//! (`surfc`, and `surfc_with_input` when the run reads standard input) and scratch
+//! directories.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// What a run of the binary gave.
@@ -13,14 +15,45 @@ pub struct Run {
     pub took: Duration,
 }
 
-/// Runs `surfc ARGS` in `dir`.
+impl Run {
+    /// (exit code, stdout, stderr).
+    pub fn bytes(self) -> (i32, Vec<u8>, String) {
+        (self.code, self.stdout, self.stderr)
+    }
+
+    /// (exit code, stderr).
+    pub fn code_and_stderr(self) -> (i32, String) {
+        (self.code, self.stderr)
+    }
+
+    /// (exit code, stdout as text, stderr).
+    pub fn text(self) -> (i32, String, String) {
+        let stdout = String::from_utf8_lossy(&self.stdout).into_owned();
+        (self.code, stdout, self.stderr)
+    }
+}
+
+/// Runs `surfc ARGS` in `dir`, its standard input empty.
 pub fn surfc(args: &[&str], dir: &Path) -> Run {
+    surfc_with_input(args, dir, &[])
+}
+
+/// Runs `surfc ARGS` in `dir` with `stdin` as its standard input.
+pub fn surfc_with_input(args: &[&str], dir: &Path, stdin: &[u8]) -> Run {
     let started = Instant::now();
-    let out = Command::new(env!("CARGO_BIN_EXE_surfc"))
+    let mut child = Command::new(env!("CARGO_BIN_EXE_surfc"))
         .args(args)
         .current_dir(dir)
-        .output()
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
         .expect("surfc runs");
+    let mut input = child.stdin.take().expect("a stdin pipe");
+    // surfc may exit before reading (a usage error): a closed pipe is fine then.
+    let _ = input.write_all(stdin);
+    drop(input);
+    let out = child.wait_with_output().expect("surfc finishes");
     Run {
         code: out.status.code().unwrap_or(-1),
         stdout: out.stdout,
@@ -29,7 +62,8 @@ pub fn surfc(args: &[&str], dir: &Path) -> Run {
     }
 }
 
-/// A fresh, empty directory for one test (`what` and the process id name it).
+/// A fresh, empty directory for one test (`what` and the process id name it; tests of one
+/// binary share the process, so `what` must be unique among them).
 pub fn scratch(what: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("surfc-{what}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

@@ -7,14 +7,17 @@ pub mod build;
 pub mod cli;
 pub mod csg;
 pub mod rng;
+pub mod sources;
 pub mod thin;
 pub mod voxel;
 
 use glam::{DMat3, DVec3};
+use surfc::cli::mesh::Meshed;
 use surfc::march::{MarchInput, MarchSettings, march};
 use surfc::mesh::Mesh;
 use surfc::mesh::check::{Expect, check};
 use surfc::mesh::quality::quality;
+use surfc::mesh::topology::Topology;
 use surfc::surface::{NativeSurface, Surface, ValueGrad};
 
 pub fn vg(value: f64, gradient: DVec3) -> ValueGrad {
@@ -125,6 +128,28 @@ pub fn circle(c: DVec3, axis: DVec3, u: DVec3, r: f64, n: usize) -> Vec<DVec3> {
 /// Number of polygon vertices for a closed curve of length `len` at step `step`.
 pub fn samples(len: f64, step: f64) -> usize {
     (len / step).round().max(3.0) as usize
+}
+
+/// What a closed surface of one component with Euler characteristic `euler` must meet: no
+/// boundary, consistently oriented, no crossings, the checker's default smallest angle.
+/// Widen it with struct update syntax (`Expect { components: None, ..closed(χ) }`).
+pub fn closed(euler: i64) -> Expect {
+    Expect {
+        closed: true,
+        euler: Some(euler),
+        components: Some(1),
+        boundary_loops: Some(0),
+        ..Expect::default()
+    }
+}
+
+/// Asserts that the mesh block `m`, meshed through the library form of `surfc mesh`, meets
+/// `expect` (the one mesh checker, `mesh::check::check`); the message names the mesh and every
+/// violation. Returns the mesh's topology.
+pub fn assert_closed(m: &Meshed, expect: &Expect) -> Topology {
+    let (topo, violations) = check(&m.mesh, None, expect);
+    assert!(violations.is_empty(), "{}: {violations:?}", m.name);
+    topo
 }
 
 /// Runs the marcher, checks the mesh against `expect` (plus vertices on the surface within

@@ -1,0 +1,17 @@
+//! The `surfc` binary: its commands, exit codes and reports, pipelines, output safety, bounded
+//! work, thread-count determinism, and the README's own commands.
+//!
+//! One test binary (tests/README.md says which root holds what); the helpers of all roots are
+//! `tests/common/`.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod bounded_work;
+mod cli_compose;
+mod csg_cli;
+mod eval_cli;
+mod mesh_cli;
+mod output_safety;
+mod readme;
+mod threads;
