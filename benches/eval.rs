@@ -11,11 +11,11 @@ use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
-use surfc::compile::compile_surface;
 use surfc::eval::Engine;
 use surfc::eval::native::NativeTape;
 use surfc::sema::program::{SurfaceId, SurfaceRef};
 use surfc::surface::compiled::CompiledSurface;
+use surfc::surface::compiled::compile_surface;
 use surfc::surface::{Surface, ValueGrad};
 
 /// Points a batch: 1 M.

@@ -15,15 +15,15 @@ use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
-use surfc::compile::compile_surface;
 use surfc::eval::Engine;
 use surfc::march::{MarchInput, MarchSettings, march, march_verified};
 use surfc::mesh::check::intersecting_pairs;
+use surfc::pipeline::components::{Marching, SearchSettings, mesh_components};
+use surfc::pipeline::pieces;
 use surfc::sema::program::{SurfaceId, SurfaceRef};
 use surfc::surface::compiled::CompiledSurface;
+use surfc::surface::compiled::compile_surface;
 use surfc::surface::{NativeSurface, Surface, ValueGrad};
-use surfc::survey::components::{Marching, SearchSettings, mesh_components};
-use surfc::survey::pieces;
 
 fn sphere() -> impl Surface {
     NativeSurface(|p: DVec3| ValueGrad {
@@ -255,7 +255,7 @@ fn components(c: &mut Criterion, make: &dyn Fn() -> CompiledSurface) {
     };
     let count = |m: Result<surfc::mesh::Mesh, String>| m.map(|m| m.triangles.len()).unwrap_or(0);
     let octree = || {
-        surfc::survey::components::candidate_cells(
+        surfc::survey::cells::candidate_cells(
             &mut make(),
             bbox.0,
             bbox.1,

@@ -1,4 +1,4 @@
-//! surfc against fast-surface-nets (DESIGN.md §6, issue 14): the same surface, the same box,
+//! surfc against fast-surface-nets (docs/speed.md, issue 14): the same surface, the same box,
 //! the same mean edge length, in one run. For each case it prints one line of medians of
 //! interleaved runs and their ratios (so a load from elsewhere on the machine falls on all
 //! alike), then criterion measures each part on its own:
@@ -20,8 +20,8 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use fast_surface_nets::ndshape::{RuntimeShape, Shape};
 use fast_surface_nets::{SurfaceNetsBuffer, surface_nets};
 use glam::DVec3;
-use surfc::cli::mesh::mesh_source;
 use surfc::march::{MarchInput, MarchSettings, march};
+use surfc::pipeline::mesh_source;
 
 /// One case: a gallery file at a step, the formula for fast-surface-nets and the box.
 struct Case {
@@ -172,7 +172,7 @@ fn compiled(case: &Case) -> surfc::surface::compiled::CompiledSurface {
         .iter()
         .position(|s| s.name == case.surface)
         .expect("the surface is defined");
-    surfc::compile::compile_surface(
+    surfc::surface::compiled::compile_surface(
         &program,
         &SurfaceRef::Surface(SurfaceId(id as u32)),
         &mut |_| -> Result<Box<dyn surfc::surface::Surface>, String> {

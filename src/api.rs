@@ -7,19 +7,19 @@ use std::io::{self, Write};
 
 use glam::DVec3;
 
-use crate::pipeline::build::Builder;
 use crate::diag;
 use crate::eval::Engine;
+use crate::pipeline::build::Builder;
 use crate::sema::program::{Program, SurfaceId, SurfaceRef};
 use crate::span::SourceMap;
 use crate::surface::Surface;
 use crate::surface::compiled::CompiledSurface;
 
-pub use crate::pipeline::Meshed;
 pub use crate::diag::{Diagnostic, Severity};
 pub use crate::mesh::quality::{MeshReport, MeshStats};
 pub use crate::mesh::write::Format;
 pub use crate::mesh::{Mesh, NamedMesh};
+pub use crate::pipeline::Meshed;
 
 /// A source with errors, or a mesh that could not be completed: every diagnostic, and the
 /// source (with the files it imports) they point into.

@@ -22,7 +22,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Inside, one module per stage of the data flow (DESIGN.md §1): `syntax` (text → AST) →
+//! Inside, one module per stage of the data flow (docs/ARCHITECTURE.md): `syntax` (text → AST) →
 //! `sema` (names, kinds, diagnostics) → `compile` (IR → tape) → `eval` (VM: value,
 //! gradient) → `surface` (the oracle the marcher sees) → `solve` (surfacepoint, foot points,
 //! curves) → `survey` (what the marcher learns of a surface before marching: intervals and
@@ -45,8 +45,6 @@ pub use api::{
 #[doc(hidden)]
 pub mod cli;
 #[doc(hidden)]
-pub mod pipeline;
-#[doc(hidden)]
 pub mod compile;
 #[doc(hidden)]
 pub mod diag;
@@ -56,6 +54,8 @@ pub mod eval;
 pub mod march;
 #[doc(hidden)]
 pub mod mesh;
+#[doc(hidden)]
+pub mod pipeline;
 #[doc(hidden)]
 pub mod sema;
 #[doc(hidden)]

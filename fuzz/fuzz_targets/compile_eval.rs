@@ -6,7 +6,7 @@
 
 use glam::DVec3;
 use libfuzzer_sys::fuzz_target;
-use surfc::compile::compile_surface;
+use surfc::surface::compiled::compile_surface;
 use surfc::eval::Engine;
 use surfc::sema::program::{SurfaceId, SurfaceRef};
 use surfc::surface::Surface;

@@ -5,7 +5,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use surfc::cli::mesh::{mesh_checked, named};
+use surfc::pipeline::{mesh_checked, named};
 use surfc::eval::Engine;
 use surfc::mesh::write::{Format, validate};
 use surfc::{diag, sema, syntax};

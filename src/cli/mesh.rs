@@ -15,14 +15,12 @@ use super::load::{Loaded, input_name, is_stdin, load_reported, stderr_color};
 use super::report::{CODE_INPUT, CODE_IO, CODE_USAGE, Failure};
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
 use crate::eval::Engine;
-use crate::mesh::quality::MeshReport;
-use crate::mesh::summary::{
-    MeshSummary, format_stats, format_summary,
-};
-use crate::mesh::write::{Format, target, write_mesh_file};
 use crate::mesh::NamedMesh;
-use crate::sema::program::MeshDef;
+use crate::mesh::quality::MeshReport;
+use crate::mesh::summary::{MeshSummary, format_stats, format_summary};
+use crate::mesh::write::{Format, target, write_mesh_file};
 use crate::pipeline::{CreaseCounts, Meshed, mesh_program, named};
+use crate::sema::program::MeshDef;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MeshFormat {
@@ -86,14 +84,14 @@ pub struct MeshArgs {
     pub threads: Option<u16>,
 }
 
-/// The `--json` report (DESIGN.md §3); structs keep the keys in the documented order.
+/// The `--json` report (docs/cli.md); structs keep the keys in the documented order.
 #[derive(Serialize)]
 struct Json<'a> {
     meshes: Vec<MeshJson<'a>>,
     seconds: f64,
 }
 
-/// One mesh of the `--json` report (DESIGN.md §3).
+/// One mesh of the `--json` report (docs/cli.md).
 #[derive(Serialize)]
 struct MeshJson<'a> {
     name: &'a str,
@@ -324,5 +322,3 @@ pub(crate) fn mesh_blocks(
     mesh_program(&loaded.program, &loaded.source, blocks, quiet, engine)
         .map_err(|d| Failure::diagnostics_map(&[d], &loaded.map, stderr_color(color)))
 }
-
-

@@ -1,4 +1,4 @@
-//! The command line of DESIGN.md §3, the only module that knows every stage. Each command
+//! The command line (docs/cli.md), the only module that knows every stage. Each command
 //! lives in its own file; exit codes: 0 success, 1 wrong input or a mesh that could not be
 //! completed, 2 usage or I/O error.
 

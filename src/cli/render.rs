@@ -7,12 +7,12 @@ use std::path::PathBuf;
 
 use super::load::load;
 use super::mesh::{mesh_blocks, select};
-use crate::pipeline::named;
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
 use crate::mesh::NamedMesh;
 use crate::mesh::read::{ReadError, read_mesh_file};
 use crate::mesh::render::{RenderOptions, parse_size, parse_view, write_picture_file};
 use crate::mesh::write::Format;
+use crate::pipeline::named;
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {

@@ -1,7 +1,7 @@
 //! How a command fails: the exit code and what went wrong, as data. Every error is printed
 //! on stderr when it happens (diagnostics through codespan, other errors as one `error:`
 //! line); a command run with `--json` also prints them all on stdout as one object,
-//! `{"errors": [{code, severity, message, file, line, column}, …]}` (DESIGN.md §3), so that a
+//! `{"errors": [{code, severity, message, file, line, column}, …]}` (docs/cli.md), so that a
 //! script reading stdout always gets JSON.
 
 use std::path::Path;

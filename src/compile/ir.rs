@@ -6,8 +6,8 @@
 
 use std::collections::HashMap;
 
-use super::tape::{Arity, Op};
 use super::ops;
+use super::tape::{Arity, Op};
 
 /// A node of the graph.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -110,7 +110,7 @@ impl Graph {
     /// 0 − a = −a (likewise up to the sign of zero); a + (−b) = a − b; a − (−b) = a + b;
     /// a·1 = a; a·(−1) = −a; a·a = square(a); a/1 = a; a/(−1) = −a; 1/a = recip(a);
     /// a^n for an integer constant n by repeated squaring (not bit-exact against `powf`: the
-    /// language defines integer powers as products, DESIGN.md §2).
+    /// language defines integer powers as products, docs/language.md).
     /// Not applied: a·0 = 0 and a − a = 0 (false for inf and NaN).
     /// Commutative operands are ordered by id, so a + b and b + a are one node.
     pub fn binary(&mut self, op: Op, a: NodeId, b: NodeId) -> NodeId {

@@ -228,7 +228,6 @@ fn target_name(program: &Program, r: &SurfaceRef) -> Option<String> {
     }
 }
 
-
 /// The listing of a lowered surface: its tape, then what each `dist` child measures.
 pub fn listing(program: &Program, lowered: &Lowered) -> String {
     let mut s = lowered.tape.listing();
@@ -358,7 +357,8 @@ mod tests {
         let l = lower(&p, 0).unwrap();
         assert!(l.tape.instrs().is_empty());
         assert_eq!(l.tape.constants(), &[6.0]);
-        let mut s = CompiledSurface::new(l.tape, vec![]).unwrap();
+        use crate::values::Surface as _;
+        let mut s = crate::surface::compiled::CompiledSurface::new(l.tape, vec![]).unwrap();
         let vg = s.value_gradient(glam::DVec3::new(1.0, 2.0, 3.0));
         assert_eq!((vg.value, vg.gradient), (6.0, glam::DVec3::ZERO));
     }

@@ -233,7 +233,7 @@ pub fn expected_statement(found: Span, found_text: &str, keywords: &[&str]) -> D
     )
     .primary(found, "a statement starts with a keyword")
     .note(format!("the keywords are {}", or_list(&list)));
-    match crate::sema::suggest::nearest(found_text, keywords.iter().copied()) {
+    match super::suggest::nearest(found_text, keywords.iter().copied()) {
         Some(k) => d.help(format!("did you mean `{k}`?")),
         None => d,
     }

@@ -4,6 +4,7 @@
 //! clamped rather than dropped.
 
 pub mod messages;
+pub mod suggest;
 
 use std::io::Write;
 

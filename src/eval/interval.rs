@@ -7,10 +7,7 @@
 //! The interval type and its arithmetic are `values::interval`; the conventions are there.
 
 use crate::compile::tape::Op;
-use crate::values::interval::{
-    Interval, abs, add, atan2, cos, mul, pow, recip, sin, square, tan,
-};
-
+use crate::values::interval::{Interval, abs, add, atan2, cos, mul, pow, recip, sin, square, tan};
 
 /// `op a, b` on intervals: contains `ops::value(op, x, y)` for every x in a and y in b where
 /// that value is not NaN. `Dist` has no rule here (the evaluator bounds the child): the

@@ -2,7 +2,7 @@
 //! interval value (the rule of [`interval`]) with three interval partials that contain every
 //! derivative the opcode's output takes by x, y and z when its operands range over their
 //! intervals. The component search (`survey::components`) uses them to keep only the cells
-//! where a component can have an extreme point (DESIGN.md §4a, docs/components.md).
+//! where a component can have an extreme point (docs/components.md).
 //!
 //! What "every derivative" means where f is not differentiable: the partials enclose the
 //! Clarke generalized gradient — the convex hull of the limits of nearby gradients — which
@@ -22,7 +22,6 @@ use crate::values::interval_grad::{IntervalGrad, ONE, UNIT, ZERO, finite, known,
 
 use super::interval::interval;
 
-
 fn op1(op: Op, a: Interval) -> Interval {
     interval(op, a, ZERO)
 }
@@ -40,8 +39,6 @@ fn sum_each(a: [Interval; 3], b: [Interval; 3], negate_b: bool) -> [Interval; 3]
     }
     d
 }
-
-
 
 /// The part of `a` inside [lo, hi] (EMPTY if none).
 fn within(a: Interval, lo: f64, hi: f64) -> Interval {

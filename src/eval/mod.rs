@@ -22,11 +22,11 @@ pub mod native;
 
 use glam::DVec3;
 
-use crate::compile::tape::{Arity, Op, Reg, Tape};
-use crate::values::{Surface, ValueGrad};
-pub use crate::values::{Interval, IntervalGrad};
 pub use crate::compile::ops::{self, Grad};
 pub use crate::compile::tape::VmError;
+use crate::compile::tape::{Arity, Op, Reg, Tape};
+pub use crate::values::{Interval, IntervalGrad};
+use crate::values::{Surface, ValueGrad};
 
 /// Points per block of the gradient batch path. Measured on the genus-3 and blend benches
 /// (32 to 1024 points; with the prefetch hints and AVX-512, 64, 128, 256 and 512): long lane
@@ -105,7 +105,6 @@ impl GradLanes {
         self.dz[i] = g.dz;
     }
 }
-
 
 /// A tape with its child surfaces and its registers.
 pub struct Vm {

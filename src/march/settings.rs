@@ -47,7 +47,7 @@ pub struct MarchSettings {
     pub box_snap: f64,
     /// The quality stage after the march (`improve/`): the smallest angle it aims at;
     /// triangles below it after flips and smoothing get a new vertex. Default 0.524 rad
-    /// (30.02°, CGAL's bound of DESIGN.md §6 with a margin for rounding). 0 turns the stage
+    /// (30.02°, CGAL's bound, docs/quality.md, with a margin for rounding). 0 turns the stage
     /// off.
     pub quality_angle: f64,
     /// Rounds of the quality stage (flips, smoothing, insertion; the last round does not
@@ -56,7 +56,7 @@ pub struct MarchSettings {
     /// The mean radius ratio the quality stage raises a mesh to once its angles are mended:
     /// a round of smoothing towards the rings' centroids where that can reach it, and the
     /// costlier ratios' phase only for a mesh still below it (or with a triangle still below
-    /// the angle). Default 0.975 (DESIGN.md §6's bar of 0.97 with a margin). At 1 every mesh
+    /// the angle). Default 0.975 (docs/quality.md's bar of 0.97 with a margin). At 1 every mesh
     /// gets every phase (a mesh block's `radius_ratio:`).
     pub quality_ratio: f64,
     /// The quality stage inserts at most this fraction of the triangle count (plus 64) as

@@ -1,4 +1,4 @@
-//! The check of a finished triangulation against its surface (DESIGN.md §3, §4a): a mesh that
+//! The check of a finished triangulation against its surface (docs/cli.md, docs/marcher.md): a mesh that
 //! is not the surface is never returned as success. Checked: every edge in one or two
 //! triangles, an interior edge once each way, an edge in one triangle only where the front
 //! bookkeeping allows one (a given polygon's edge, or between border points on the box and

@@ -1,5 +1,5 @@
 //! Coherent nets oriented as one. Meshes written to one file that share a polygon (its
-//! vertices bit-identical, DESIGN.md §2) join along its edges; each mesh is oriented by its
+//! vertices bit-identical, docs/language.md) join along its edges; each mesh is oriented by its
 //! own ∇f, which may point the other way from its neighbour's (the G2 set's closure: its ∇f
 //! points into the cylinder it closes). Where an edge is in exactly two triangles of two
 //! different meshes, the two must use it in opposite directions; a mesh whose shared edges

@@ -1,6 +1,6 @@
 //! Quality of a triangle mesh: triangle angles (smallest, percentiles of each triangle's
 //! smallest angle), radius ratios, edge lengths, and how far vertices are off a surface
-//! (|f|/|∇f|); and the `MeshReport` the CLI prints as JSON (DESIGN.md §3).
+//! (|f|/|∇f|); and the `MeshReport` the CLI prints as JSON (docs/cli.md).
 
 use glam::DVec3;
 use serde::Serialize;
@@ -193,7 +193,7 @@ pub fn max_vertex_error(mesh: &Mesh, surface: &mut dyn Surface) -> f64 {
     worst
 }
 
-/// The per-mesh figures of `surfc mesh --json` (DESIGN.md §3); the CLI adds name, surface,
+/// The per-mesh figures of `surfc mesh --json` (docs/cli.md); the CLI adds name, surface,
 /// step and seconds.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MeshReport {

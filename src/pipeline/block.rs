@@ -67,7 +67,6 @@ pub fn named(meshed: &[Meshed]) -> Vec<NamedMesh<'_>> {
         .collect()
 }
 
-
 /// Parses, checks and meshes every mesh block of `source`: the library form of
 /// `surfc mesh`, for tests and embedders. Err holds every diagnostic of the file, or the one
 /// that says why a mesh could not be completed.

@@ -195,7 +195,7 @@ impl<'p> Builder<'p> {
     }
 
     /// The polygon of curve `id` as a front or bound of a mesh of `surface`: a circle's
-    /// vertices are projected onto the surface (DESIGN.md §2); intersection curves and patch
+    /// vertices are projected onto the surface (docs/language.md); intersection curves and patch
     /// boundaries already lie on their surfaces and are used as sampled, so that every mesh
     /// that shares them shares their vertices exactly.
     pub(crate) fn polygon_on(
@@ -245,7 +245,7 @@ pub(crate) fn innermost(e: &CompileError) -> (&CompileError, Option<Span>) {
     (e, at)
 }
 
-/// The diagnostic of a compile error that is the user's (a limit of DESIGN.md §2 reached),
+/// The diagnostic of a compile error that is the user's (a limit of docs/language.md "Limits" reached),
 /// pointing at the call or `dist` at fault; None for errors that only a hand-built program
 /// can cause.
 pub(crate) fn limit_diagnostic(e: &CompileError) -> Option<Diagnostic> {

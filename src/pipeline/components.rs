@@ -1,4 +1,4 @@
-//! The component search (DESIGN.md §4a *Components*): every component of a surface inside a
+//! The component search (docs/components.md): every component of a surface inside a
 //! box, without a start point. Input: the surface oracle, the step, the box; output: one mesh
 //! holding every component the marcher made from the seeds found, the number of components,
 //! and warnings (with their places) for what could not be meshed.
@@ -26,7 +26,7 @@
 //!
 //! Where a leaf gives no seed, or its seeds' local step (`survey::sizing`) is well below the
 //! leaf, the leaf is walked again with leaves of about that size (a thin tube, a flat plate,
-//! small balls: DESIGN.md §4a, "cells of about the local step"), and the coverage and
+//! small balls: docs/components.md, "cells of about the local step"), and the coverage and
 //! smallness tests are sized by the local step and the mesh's own edges.
 //!
 //! Deterministic: the cells, their seeds and the components follow one fixed order, so the
@@ -924,7 +924,6 @@ const LOOKAHEAD: usize = 32;
 
 /// The clusters may bound at least this many cells, however few the walk has bounded.
 const MIN_CLUSTER_CELLS: usize = 256;
-
 
 /// A kept leaf is walked again with leaves of this many local steps (at the finest of its
 /// seeds) when that is below half the leaf: cells of about the local step, as the marcher

@@ -1,4 +1,4 @@
-//! Creases (DESIGN.md §4a *Creases*; the paper's coherent nets, Sects. 3.9 and 3.11, found
+//! Creases (docs/creases.md; the paper's coherent nets, Sects. 3.9 and 3.11, found
 //! automatically): a surface whose spine (`survey::spine`) switches between smooth forms is
 //! meshed as one net of smooth pieces that share their crease polygons bit for bit.
 //!
@@ -26,8 +26,6 @@ use std::collections::HashMap;
 use glam::{DMat3, DVec3};
 
 use super::components::{self, Marching, SearchError, SearchSettings};
-use crate::survey::sizing::Sizing;
-use crate::survey::spine::Creased;
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
 use crate::mesh::bits::BitsHash;
@@ -35,6 +33,8 @@ use crate::solve::SurfacePoint;
 use crate::solve::curve::{ArcLength, min_norm_step};
 use crate::solve::surfacepoint::tangent_frame;
 use crate::surface::{Surface, ValueGrad};
+use crate::survey::sizing::Sizing;
+use crate::survey::spine::Creased;
 
 /// Settings of the crease search. Lengths are multiples of the step.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -11,15 +11,15 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::build::Builder;
+use super::components::{Marching, SearchSettings};
+use super::crease_net::{self, CreaseError, CreaseSettings, CreasedMesh};
 use crate::compile::CompileError;
 use crate::diag::{Diagnostic, messages};
 use crate::mesh::Mesh;
 use crate::sema::program::MeshDef;
 use crate::surface::Fork;
 use crate::surface::Surface;
-use super::components::{Marching, SearchSettings};
 use crate::survey::cells::{Candidates, surface_cells};
-use super::crease_net::{self, CreaseError, CreaseSettings, CreasedMesh};
 use crate::survey::spine::Creased;
 
 /// What a mesh made crease by crease (`pipeline::crease_net`) has of its creases.

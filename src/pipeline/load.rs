@@ -40,4 +40,3 @@ pub fn analyse_file(
     diags.extend(more);
     (parsed.map, Some((file, program)), diags)
 }
-

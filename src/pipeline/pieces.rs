@@ -1,4 +1,4 @@
-//! Parallel pieces (DESIGN.md §4a *Parallel pieces*, issue 14): one large component marched
+//! Parallel pieces (docs/pieces.md, issue 14): one large component marched
 //! from a start point is cut along planes into slabs, the cut curves (surface ∩ plane) are
 //! traced once and shared as polygons between the two slabs they separate (the paper's
 //! coherent nets, Sects. 3.9 and 3.11), and each slab is marched on its own thread of the
@@ -40,7 +40,6 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::crease_net::merge_at;
-use crate::survey::sizing::{Sizing, SizingSettings};
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Marched, Start};
 use crate::mesh::Mesh;
 use crate::mesh::check::intersecting_pairs;
@@ -52,6 +51,7 @@ use crate::solve::surfacepoint::tangent_frame;
 use crate::solve::tolerance::CurveTolerance;
 use crate::surface::Fork;
 use crate::surface::{NativeSurface, Surface, ValueGrad};
+use crate::survey::sizing::{Sizing, SizingSettings};
 
 /// The coarse survey marches at this many steps.
 pub const COARSE: f64 = 8.0;
@@ -67,11 +67,11 @@ const SHIFTS: [f64; 5] = [0.0, 0.1, -0.1, 0.2, -0.2];
 /// A piece's vertex may be this far (× step) beyond its slab's planes (the cut vertices lie
 /// on the planes to rounding).
 const SLAB_MARGIN: f64 = 1e-6;
-/// The quality bar at the cut polygons (DESIGN.md §6, degrees): a triangle there below it,
+/// The quality bar at the cut polygons (docs/quality.md, degrees): a triangle there below it,
 /// and below every triangle away from the cuts, refuses the cut.
 pub const CUT_ANGLE: f64 = 30.0;
 /// The quality stage's aim (`MarchSettings::quality_ratio`) less this is the least mean
-/// radius ratio the joined slabs may have: the default aim 0.975 is DESIGN.md §6's bar of
+/// radius ratio the joined slabs may have: the default aim 0.975 is docs/quality.md's bar of
 /// 0.97 with this margin.
 const RATIO_MARGIN: f64 = 0.005;
 /// Triangles within this many steps of a plane are checked for crossings across pieces.

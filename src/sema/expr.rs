@@ -1,5 +1,5 @@
 //! Expressions: AST → program `Expr` with names resolved by kind, calls checked against their
-//! signatures, and the combinators rewritten (DESIGN.md §2):
+//! signatures, and the combinators rewritten (docs/language.md):
 //! `offset(S, d)` = dist(S) − d; `product(S1, …, Sn)` = S1·…·Sn (the surfaces' values);
 //! `blend(S1, S2, c1, c2, mu)` = (1−mu)(d1/c1)(d2/c2) − mu(1 − d1/c1 − d2/c2)^3, d_i = dist(S_i).
 //! Recursion follows the AST, whose depth the parser bounds.
@@ -256,7 +256,7 @@ impl<'f> Checker<'f> {
         }
         let suggestion = if self.suggestions_wanted() {
             let names = self.visible_names(cx);
-            super::suggest::nearest(n, names.iter().map(String::as_str)).map(str::to_string)
+            crate::diag::suggest::nearest(n, names.iter().map(String::as_str)).map(str::to_string)
         } else {
             None
         };
@@ -396,7 +396,7 @@ impl<'f> Checker<'f> {
             return self.fail(cx, messages::curve_as_value(span, &format!("`{name}(…)`")));
         }
         let suggestion = if self.suggestions_wanted() {
-            super::suggest::nearest(name, self.callable_names()).map(str::to_string)
+            crate::diag::suggest::nearest(name, self.callable_names()).map(str::to_string)
         } else {
             None
         };

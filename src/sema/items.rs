@@ -377,7 +377,7 @@ impl<'f> Checker<'f> {
                         .filter(|(_, d)| self.decls[**d].kind == Kind::Patch)
                         .map(|(k, _)| *k)
                         .collect();
-                    let s = super::suggest::nearest(n, names).map(str::to_string);
+                    let s = crate::diag::suggest::nearest(n, names).map(str::to_string);
                     self.diags
                         .push(messages::unknown_name(p.span, n, s.as_deref()));
                     return None;
@@ -420,7 +420,7 @@ impl<'f> Checker<'f> {
                         .filter(|(_, d)| self.decls[**d].kind == Kind::Curve)
                         .map(|(k, _)| *k)
                         .collect();
-                    let s = super::suggest::nearest(n, names).map(str::to_string);
+                    let s = crate::diag::suggest::nearest(n, names).map(str::to_string);
                     self.diags
                         .push(messages::unknown_name(e.span, n, s.as_deref()));
                     return None;
@@ -559,7 +559,7 @@ impl<'f> Checker<'f> {
             let key = o.name.name.as_str();
             if !MESH_OPTIONS.contains(&key) {
                 unknown_options = true;
-                let s = super::suggest::nearest(key, MESH_OPTIONS).map(str::to_string);
+                let s = crate::diag::suggest::nearest(key, MESH_OPTIONS).map(str::to_string);
                 self.diags.push(messages::unknown_mesh_option(
                     o.name.span,
                     key,
@@ -729,7 +729,7 @@ impl<'f> Checker<'f> {
                 None => ok = false,
             }
         }
-        // With a box alone every component inside is meshed (DESIGN.md §2). A misspelt
+        // With a box alone every component inside is meshed (docs/language.md). A misspelt
         // `start`, `front` or `box` is already reported as an unknown option.
         let begins = ["start", "front", "box"]
             .iter()

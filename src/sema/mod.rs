@@ -12,7 +12,6 @@ mod graph;
 mod items;
 pub mod program;
 pub(crate) mod solids;
-pub mod suggest;
 #[cfg(test)]
 mod tests;
 

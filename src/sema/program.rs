@@ -1,6 +1,6 @@
 //! The checked program: what `sema` hands to the compiler and to the mesher. Names are
 //! resolved to typed ids; constants are evaluated; `offset`, `product` and `blend` are already
-//! rewritten into arithmetic over `Dist` nodes (DESIGN.md §2), and the solids (booleans,
+//! rewritten into arithmetic over `Dist` nodes (docs/language.md), and the solids (booleans,
 //! primitives) into arithmetic and `min`/`max`, so the only non-arithmetic nodes left are
 //! `Dist` and `At` (an expression evaluated at a transformed point). Functions stay separate definitions: the compiler inlines them into
 //! a hash-consed IR, which keeps repeated calls shared.

@@ -1,5 +1,5 @@
-//! Solids as CSG users write them (DESIGN.md §2) → program expressions. The booleans become
-//! `min`/`max` (creases the mesher finds, DESIGN.md §4a), the smooth booleans the polynomial
+//! Solids as CSG users write them (docs/language.md) → program expressions. The booleans become
+//! `min`/`max` (creases the mesher finds, docs/creases.md), the smooth booleans the polynomial
 //! smooth minimum (no crease), the primitives their distance formulas, and a transform an `At`
 //! node: the surface evaluated at the inverse-transformed point. A transform of a patch (where a
 //! patch is expected: `dist`, `offset`, `blend`) becomes a new patch whose points are

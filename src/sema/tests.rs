@@ -1,5 +1,5 @@
 //! What sema puts into the `Program`: ids, evaluated constants, the combinator rewrites of
-//! DESIGN.md §2, curves and meshes; and that the deepest expressions the parser accepts go
+//! docs/language.md, curves and meshes; and that the deepest expressions the parser accepts go
 //! through every recursive walk on a test thread's small stack.
 
 use glam::DVec3;

@@ -1,4 +1,4 @@
-//! Curves (DESIGN.md §2): intersection curves, circles, patch boundaries, reversal — each
+//! Curves (docs/language.md): intersection curves, circles, patch boundaries, reversal — each
 //! sampled at a step δ into a [`Polygon`], the first front or a bounding front of the marcher.
 //!
 //! Invariants of every polygon built here: consecutive vertices are ≈ δ apart and never
@@ -598,7 +598,7 @@ pub fn circle_segments(
     })
 }
 
-/// Each vertex replaced by surfacepoint(vertex) on `surface` (DESIGN: a curve's points are
+/// Each vertex replaced by surfacepoint(vertex) on `surface` (docs/language.md: a curve's points are
 /// projected onto the surface that uses it). `scale` is the mesh step.
 pub fn project_onto(
     surface: &mut dyn Surface,

@@ -8,10 +8,10 @@ use glam::DVec3;
 use super::{Patch, PatchJet, Surface, ValueGrad};
 use crate::compile::tape::Tape;
 use crate::compile::{CompileError, Lowered, lower_patch, lower_spine, lower_surface};
-use crate::sema::program::{PatchId, Program, SurfaceRef};
-use crate::survey::spine::Spine;
 use crate::eval::native::NativeError;
 use crate::eval::{Engine, Grad, Interval, IntervalGrad, Vm, VmError};
+use crate::sema::program::{PatchId, Program, SurfaceRef};
+use crate::survey::spine::Spine;
 
 /// An implicit surface f(x, y, z) = 0 evaluated from its tape.
 #[derive(Debug)]

@@ -1,4 +1,4 @@
-//! Distance surfaces (DESIGN.md §2 `dist`): the normal form of a surface, f(x) = the oriented
+//! Distance surfaces (docs/language.md, `dist`): the normal form of a surface, f(x) = the oriented
 //! distance from x to the surface, computed through foot points (`solve::foot`). The value is
 //! ±|x − q|, the gradient the unit normal at the foot point q (not differentiated through the
 //! iterations: that normal *is* the gradient of the distance function wherever the foot

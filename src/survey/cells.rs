@@ -206,7 +206,7 @@ pub fn octree(
 /// that the search can seed and march from the first leaves before the rest are bounded (and
 /// stop there when the marches reach `max_triangles`). A kept leaf can be walked again with
 /// a finer leaf ([`Walk::refine`]): the octree goes down to about the local step where the
-/// surface has features smaller than the step (DESIGN.md §4a *Components*).
+/// surface has features smaller than the step (docs/components.md).
 pub struct Walk {
     /// Regions not begun, last first.
     pub regions: Vec<Region>,

@@ -1,4 +1,4 @@
-//! The local step h(p) ≤ step (DESIGN.md §4a): how long the marcher's edges may be at a point
+//! The local step h(p) ≤ step (docs/marcher.md): how long the marcher's edges may be at a point
 //! of the surface, from its curvature (the chord error stays within the tolerance, the normal
 //! turns little per edge), its thickness (the nearest other sheet along ±n, so that a tube, a
 //! plate, a neck or a gap gets several triangles across) and from caps that the verification

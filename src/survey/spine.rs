@@ -2,7 +2,7 @@
 //! constant factors of smooth *branch* surfaces b₀, b₁, … (each evaluated on its own). Every
 //! operation of the spine is linear or picks one operand, so wherever the choices are fixed f
 //! is a linear *form* Σ cₖ·bₖ + c: the smooth pieces of f are the zero sets of its forms, and a
-//! crease is where two forms are both zero and both chosen (DESIGN.md §4a *Creases*).
+//! crease is where two forms are both zero and both chosen (docs/creases.md).
 //!
 //! Built by `compile::spine` from the IR; knows nothing of syntax. Forms are identified by
 //! their coefficients, so two patterns of choices that give the same function are one piece.

@@ -16,7 +16,6 @@
 //! - `dist` has no rule here: the evaluator asks the child surface for its bound (a distance
 //!   is 1-Lipschitz: its centre value ± the cell's half-diagonal).
 
-
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// A closed interval [lo, hi] of reals, possibly with infinite ends, or empty (NaN ends).

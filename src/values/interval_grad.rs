@@ -6,7 +6,6 @@ use glam::DVec3;
 
 use super::interval::{Interval, add, mul};
 
-
 /// A value interval with its three partial-derivative intervals (by x, y, z).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IntervalGrad {
@@ -95,7 +94,13 @@ impl IntervalGrad {
     }
 
     /// k·self' + m·other' with value `v`.
-    pub fn chain2(self, other: IntervalGrad, v: Interval, k: Interval, m: Interval) -> IntervalGrad {
+    pub fn chain2(
+        self,
+        other: IntervalGrad,
+        v: Interval,
+        k: Interval,
+        m: Interval,
+    ) -> IntervalGrad {
         let mut d = [ZERO; 3];
         for (i, slot) in d.iter_mut().enumerate() {
             *slot = sum(scale(k, self.d[i]), scale(m, other.d[i]));
@@ -128,7 +133,6 @@ pub fn sum(a: Interval, b: Interval) -> Interval {
         known(add(a, b))
     }
 }
-
 
 /// k·d for a partial d: exactly 0 where d is (the operand does not depend on that input),
 /// and the whole line where k is unbounded or undefined (the opcode is not Lipschitz in the

@@ -1,5 +1,5 @@
 //! Inputs that used to make surfc work for minutes end in seconds with a diagnostic that says
-//! which limit was reached and where (DESIGN.md §2, docs/language.md "Limits"): an exponential
+//! which limit was reached and where (docs/language.md "Limits"): an exponential
 //! chain of functions (E0603), `dist` nested too deep (E0604), a march that cannot end because
 //! the surface is unbounded or the front overlaps itself (E0601).
 

@@ -23,10 +23,10 @@ use glam::DVec3;
 use surfc::march::MarchSettings;
 use surfc::mesh::Mesh;
 use surfc::mesh::topology::topology;
-use surfc::surface::Surface;
-use surfc::survey::components::{
+use surfc::pipeline::components::{
     Marching, SearchSettings, mesh_components, mesh_components_forked,
 };
+use surfc::surface::Surface;
 
 const THREADS: [&str; 3] = ["1", "2", "8"];
 

@@ -3,10 +3,10 @@
 //! whose foot tolerance has `scale` = the mesh step.
 #![allow(dead_code)]
 
-use surfc::compile::{self, CompileError};
+use surfc::compile::CompileError;
 use surfc::sema::program::{Program, SurfaceRef};
 use surfc::solve::tolerance::{FootTolerance, PatchFootTolerance};
-use surfc::surface::compiled::CompiledSurface;
+use surfc::surface::compiled::{self as compiled, CompiledSurface};
 use surfc::surface::{ImplicitDist, PatchDist, Surface};
 
 /// The checked program of `source`; panics on any diagnostic.
@@ -25,7 +25,7 @@ pub fn build(
     r: &SurfaceRef,
     scale: f64,
 ) -> Result<CompiledSurface, CompileError> {
-    compile::compile_surface(program, r, &mut |target: &SurfaceRef| -> Result<
+    compiled::compile_surface(program, r, &mut |target: &SurfaceRef| -> Result<
         Box<dyn Surface>,
         CompileError,
     > {
@@ -35,7 +35,7 @@ pub fn build(
         };
         Ok(match target {
             SurfaceRef::Patch(id) => Box::new(PatchDist::with_tolerance(
-                Box::new(compile::compile_patch(program, *id)?),
+                Box::new(compiled::compile_patch(program, *id)?),
                 PatchFootTolerance {
                     foot,
                     ..PatchFootTolerance::default()

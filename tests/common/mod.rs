@@ -12,12 +12,12 @@ pub mod thin;
 pub mod voxel;
 
 use glam::{DMat3, DVec3};
-use surfc::cli::mesh::Meshed;
 use surfc::march::{MarchInput, MarchSettings, march};
 use surfc::mesh::Mesh;
 use surfc::mesh::check::{Expect, check};
 use surfc::mesh::quality::quality;
 use surfc::mesh::topology::Topology;
+use surfc::pipeline::Meshed;
 use surfc::surface::{NativeSurface, Surface, ValueGrad};
 
 pub fn vg(value: f64, gradient: DVec3) -> ValueGrad {
@@ -190,7 +190,7 @@ pub fn mesh_and_check(name: &str, surface: &mut Boxed, input: &MarchInput, expec
 }
 
 /// The mean radius ratio (2·r_in/r_circ) every march test's mesh reaches: issue 13's bar,
-/// DESIGN.md §6 (the flat ellipsoid of `march_thin` reached it when the local step was graded
+/// docs/quality.md (the flat ellipsoid of `march_thin` reached it when the local step was graded
 /// towards fine places too, `Sizing::regrading_caps`).
 pub const MEAN_RADIUS_RATIO: f64 = 0.97;
 

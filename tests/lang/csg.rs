@@ -1,4 +1,4 @@
-//! The solids of the language (DESIGN.md §2) against formulas written here independently:
+//! The solids of the language (docs/language.md) against formulas written here independently:
 //! booleans equal raw `min`/`max`, the smooth booleans are C1 and equal `min`/`max` away from
 //! the blend, transforms move and turn a surface as a rigid motion (values and gradients),
 //! primitives are the distances they claim, and a transformed patch's points are moved.
@@ -257,8 +257,9 @@ fn a_transformed_patch_has_moved_points() {
     );
     // The program holds the transformed patch (both transforms composed) after the declared one.
     assert_eq!(program.patches.len(), 2, "{:?}", program.patches);
-    let mut patch = surfc::compile::compile_patch(&program, surfc::sema::program::PatchId(1))
-        .expect("compiles");
+    let mut patch =
+        surfc::surface::compiled::compile_patch(&program, surfc::sema::program::PatchId(1))
+            .expect("compiles");
     use surfc::surface::Patch;
     let mut rng = Rng(9);
     for _ in 0..200 {
@@ -284,7 +285,8 @@ fn a_transformed_patch_has_moved_points() {
         surfc::sema::program::CurveKind::Boundary(surfc::sema::program::PatchId(1))
     );
     let mut scaled =
-        surfc::compile::compile_patch(&rimmed, surfc::sema::program::PatchId(1)).expect("compiles");
+        surfc::surface::compiled::compile_patch(&rimmed, surfc::sema::program::PatchId(1))
+            .expect("compiles");
     assert!((scaled.point_jacobian(1.0, 1.0).point - DVec3::new(2.0, 2.0, 2.0)).length() <= 1e-12);
     // And dist() of it measures from the moved patch: its point (−0.5, 0.5, 1.25) is on it.
     let mut s = surface(&program, "near_roof");

@@ -11,11 +11,11 @@ use std::rc::Rc;
 use common::{BLEND, GENUS3, Reference, SPHERE, TORUS, program, surface_id};
 use glam::DVec3;
 use surfc::compile::tape::{Instr, Op, Reg, Tape};
-use surfc::compile::{compile_patch, compile_surface};
 use surfc::eval::native::NativeError;
 use surfc::eval::{Engine, Grad, Vm};
 use surfc::sema::program::{PatchId, Program, SurfaceRef};
 use surfc::surface::compiled::CompiledSurface;
+use surfc::surface::compiled::{compile_patch, compile_surface};
 use surfc::surface::{NativeSurface, Patch, Surface, ValueGrad};
 
 const POINTS: usize = 1000;

@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use surfc::cli::mesh::mesh_checked;
 use surfc::eval::Engine;
+use surfc::pipeline::mesh_checked;
 use surfc::{diag, sema, syntax};
 
 fn fixture(name: &str) -> String {

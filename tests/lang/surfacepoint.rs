@@ -7,12 +7,12 @@ use crate::common::sources as common;
 
 use common::{GENUS3, SPHERE, TORUS, program, surface_id};
 use glam::DVec3;
-use surfc::compile::compile_surface;
 use surfc::eval::Engine;
 use surfc::sema::program::SurfaceRef;
 use surfc::solve::tolerance::SurfacePointTolerance;
 use surfc::solve::{SurfacePointError, surface_point};
 use surfc::surface::compiled::CompiledSurface;
+use surfc::surface::compiled::compile_surface;
 use surfc::surface::{Surface, ValueGrad};
 
 /// Most Newton steps (gradient evaluations) a start within one step may take.

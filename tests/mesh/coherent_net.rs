@@ -179,7 +179,7 @@ fn six_holes_keep_their_circles_exactly() {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sphere_six_holes.surf"),
     )
     .unwrap();
-    let meshed = surfc::cli::mesh::mesh_source(&source).expect("meshes");
+    let meshed = surfc::pipeline::mesh_source(&source).expect("meshes");
     let m = &meshed[0];
     let loops = topology(&m.mesh).boundary_loops;
     assert_eq!(loops.len(), 6);

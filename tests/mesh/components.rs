@@ -12,9 +12,9 @@ use common::build::{build, checked};
 use common::rng::Rng;
 use common::voxel::solid_count;
 use glam::DVec3;
-use surfc::cli::mesh::{Meshed, mesh_source};
 use surfc::mesh::check::{Expect, check};
 use surfc::mesh::topology::{Topology, topology};
+use surfc::pipeline::{Meshed, mesh_source};
 use surfc::surface::Surface;
 
 /// Meshes `source` (one mesh block) and returns it; panics with the diagnostics otherwise.

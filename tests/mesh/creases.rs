@@ -5,7 +5,7 @@
 //! (`common::voxel`), which never looks at a mesh.
 //!
 //! Smallest angles: the marcher's own triangles keep ≥ 20° here; the exception allowed by
-//! DESIGN.md §6 (corners of given polygons sharper than 60°) does not arise in these shapes,
+//! docs/quality.md (corners of given polygons sharper than 60°) does not arise in these shapes,
 //! whose crease loops turn by at most 90° at a corner.
 
 use crate::common;
@@ -14,8 +14,8 @@ use common::csg::{Degenerate, GeneralPosition, Primitive, Shape, SmoothOp, Tree}
 use common::rng::Rng;
 use common::voxel::{SolidCount, solid_count, two_readings};
 use glam::{DMat3, DVec3};
-use surfc::cli::mesh::{CreaseCounts, Meshed, mesh_source};
 use surfc::mesh::check::{Expect, check};
+use surfc::pipeline::{CreaseCounts, Meshed, mesh_source};
 
 fn mesh_one(source: &str) -> Meshed {
     match mesh_source(source) {
@@ -629,7 +629,7 @@ enum Outcome {
     /// No two of the reference's grids agree: the case is not checked.
     Skipped,
     /// The mesh differs from the reference, and surfc warned of a component smaller than
-    /// the step that it did not mesh (DESIGN.md §4a: reported, not silently dropped).
+    /// the step that it did not mesh (docs/components.md: reported, not silently dropped).
     Small,
     /// A mesh reported as success that is not the surface: what is wrong.
     Wrong(String),

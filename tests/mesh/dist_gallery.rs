@@ -1,5 +1,5 @@
-//! The gallery's `dist()` meshes (DESIGN.md §5: Sects. 3.7 and 3.11) against the accuracy bar of
-//! DESIGN.md §6: every vertex satisfies |f|/|∇f| ≤ 1e-9·step when re-evaluated with a FRESH
+//! The gallery's `dist()` meshes (docs/examples.md: Sects. 3.7 and 3.11) against the accuracy bar of
+//! docs/quality.md: every vertex satisfies |f|/|∇f| ≤ 1e-9·step when re-evaluated with a FRESH
 //! surface instance (cold foot-point searches, no warm start; every tenth vertex by default,
 //! all with `SURFC_DIST_COLD_ALL=1`), and also with one instance
 //! evaluating every vertex in order (warm starts, as the mesh report does). The two differ
@@ -17,7 +17,7 @@ use common::build::{build, checked};
 use glam::DVec3;
 use surfc::surface::Surface;
 
-/// DESIGN.md §6: vertices within this many steps of their surface.
+/// docs/quality.md: vertices within this many steps of their surface.
 const VERTEX_ERROR_PER_STEP: f64 = 1e-9;
 
 /// |f|/|∇f| at p (infinite for NaN: a failed foot point is as bad as a wrong one).

@@ -33,7 +33,7 @@ use surfc::mesh::NamedMesh;
 use surfc::mesh::check::{Expect, check};
 use surfc::mesh::quality::quality;
 use surfc::mesh::write::{Format, write_mesh_file};
-use surfc::survey::pieces;
+use surfc::pipeline::pieces;
 use surfc::survey::sizing::SizingSettings;
 
 /// Log-uniform in [lo, hi].

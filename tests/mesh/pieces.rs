@@ -14,8 +14,8 @@ use glam::DVec3;
 use surfc::march::{MarchInput, MarchSettings};
 use surfc::mesh::Mesh;
 use surfc::mesh::check::{Expect, check};
+use surfc::pipeline::pieces::{self, Pieced};
 use surfc::surface::{NativeSurface, Surface};
-use surfc::survey::pieces::{self, Pieced};
 
 /// Marches `make()`'s surface from `start` with the given settings on a pool of `threads`.
 fn run(

@@ -2,10 +2,10 @@
 //! `vn`, `f a//a`), the shortest round-trip coordinates, and the marcher's determinism all
 //! show in one small file. The mesh is checked before its bytes are locked.
 
-use surfc::cli::mesh::mesh_source;
 use surfc::mesh::NamedMesh;
 use surfc::mesh::check::{Expect, check};
 use surfc::mesh::write::Format;
+use surfc::pipeline::mesh_source;
 
 const SOURCE: &str = "surface sphere = x^2 + y^2 + z^2 - 4;\n\
                       mesh coarse = sphere { step: 1; start: (1, 1, 1); uniform: true; }\n";

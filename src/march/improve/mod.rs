@@ -123,7 +123,7 @@ const SMOOTH_BELOW: f64 = 0.97;
 /// `polish`'s. Smoothing also the corners of every triangle below 42° (the second to seventh sessions)
 /// touched four in five of the fine sphere's vertices in each round for a mean radius ratio
 /// that the ODT's first round then sets anyway (0.9771 with them, 0.9768 without, at 2.4
-/// times the rounds' cost; docs/marcher.md, *The stage as cheap as its aim*).
+/// times the rounds' cost; CHANGELOG.md, Notes, *The stage as cheap as its aim*).
 const BAD_RINGS: usize = 2;
 
 /// Rounds after `Limits::rounds`, while a triangle is still below the target, in which the

@@ -124,7 +124,7 @@ pub(super) fn run<'s>(
             return Err(MarchError::InvalidBox { lo, hi });
         }
     }
-    let trace = std::env::var_os("SURFC_TRACE").is_some_and(|v| !v.is_empty() && v != "0");
+    let trace = crate::trace::enabled();
     let mut m = Marcher {
         surface,
         s: *settings,
@@ -269,7 +269,8 @@ impl Marcher<'_> {
         if size.floored && self.hidden_crease.is_none() && self.jump_checks < MAX_JUMP_CHECKS {
             self.jump_checks += 1;
             let reach = self.sizing.floor();
-            self.hidden_crease = gradient_jump::gradient_jump(self.surface, sp.point, (sp.t1, sp.t2), reach);
+            self.hidden_crease =
+                gradient_jump::gradient_jump(self.surface, sp.point, (sp.t1, sp.t2), reach);
         }
         let h = match parent {
             Some(q) => {

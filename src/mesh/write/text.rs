@@ -1,5 +1,5 @@
 //! Numbers as text for the text formats (OBJ, OFF, MSH), fast: floats through `ryu` in
-//! exactly the text of Rust's `{:?}` (shortest round-trip; DESIGN.md §3), integers through
+//! exactly the text of Rust's `{:?}` (shortest round-trip; docs/cli.md), integers through
 //! `itoa`, and long lists formatted in chunks on the threads of the rayon pool and written in
 //! order, so the bytes are the same for any number of threads.
 
