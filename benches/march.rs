@@ -3,7 +3,7 @@
 //! native code; and on the interpreter), and the share of the time spent evaluating the
 //! surface (printed once per case, measured with a timing wrapper around the surface).
 //! `components/…`: genus 3 at step 0.3 meshed from its box alone (the component search of
-//! `survey::components`) against the same box with a start point, and the search's share of
+//! `pipeline::components`) against the same box with a start point, and the search's share of
 //! the time (printed once). `quality/sphere_0.01_{off,on}`: the sphere at step 0.01 with the
 //! quality stage off and on (its cost), and its share from interleaved pairs (printed once),
 //! marched as one piece and in slabs as `surfc mesh` marches it.
@@ -151,7 +151,7 @@ fn quality_share(c: &mut Criterion, start: DVec3) {
         t.elapsed().as_secs_f64()
     };
     print_share("marched as one piece", time, &off, &on);
-    // The same sphere as `surfc mesh` marches it: cut into slabs (`survey::pieces`), here on
+    // The same sphere as `surfc mesh` marches it: cut into slabs (`pipeline::pieces`), here on
     // a pool of one thread.
     let one_thread = rayon::ThreadPoolBuilder::new()
         .num_threads(1)

@@ -105,7 +105,7 @@ struct MeshJson<'a> {
     flipped: bool,
     /// The creases of a mesh made crease by crease, else null.
     creases: Option<CreaseCounts>,
-    /// Slabs marched on separate threads (`survey::pieces`); left out when 1.
+    /// Slabs marched on separate threads (`pipeline::pieces`); left out when 1.
     #[serde(skip_serializing_if = "is_one")]
     pieces: usize,
     seconds: f64,

@@ -243,6 +243,8 @@ pub fn listing(program: &Program, lowered: &Lowered) -> String {
 mod tests {
     use super::*;
     use crate::sema::program::{Axis, BinaryOp, Expr, ExprKind, FnDef, PatchDef, SurfaceDef};
+    use crate::surface::compiled::CompiledSurface;
+    use crate::values::Surface as _;
 
     fn e(kind: ExprKind) -> Expr {
         Expr {
@@ -357,8 +359,7 @@ mod tests {
         let l = lower(&p, 0).unwrap();
         assert!(l.tape.instrs().is_empty());
         assert_eq!(l.tape.constants(), &[6.0]);
-        use crate::values::Surface as _;
-        let mut s = crate::surface::compiled::CompiledSurface::new(l.tape, vec![]).unwrap();
+        let mut s = CompiledSurface::new(l.tape, vec![]).unwrap();
         let vg = s.value_gradient(glam::DVec3::new(1.0, 2.0, 3.0));
         assert_eq!((vg.value, vg.gradient), (6.0, glam::DVec3::ZERO));
     }

@@ -11,7 +11,7 @@
 //! after negations, sums and constant factors are moved inside the choice. The lifted choice
 //! becomes a `Select` chosen by the original node's operands (a₁ − a₂), and each smin of
 //! smooth operands is a branch. A lifted spine larger than the limits is not used: the
-//! surface is then read as before (its hidden edges refused by `survey::jump`).
+//! surface is then read as before (its hidden edges refused by `survey::gradient_jump`).
 
 use std::collections::HashMap;
 

@@ -1,6 +1,6 @@
 //! Interval arithmetic over the tape: for each opcode, an interval that contains every value
 //! the opcode takes when its operands range over their intervals. The component search
-//! (`survey::components`) runs a surface's tape on the box of an octree cell and drops the
+//! (`pipeline::components`) runs a surface's tape on the box of an octree cell and drops the
 //! cell when the result excludes 0.
 //!
 //!

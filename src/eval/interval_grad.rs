@@ -1,7 +1,7 @@
 //! Interval gradients: forward-mode differentiation over intervals. For each opcode, an
 //! interval value (the rule of [`interval`]) with three interval partials that contain every
 //! derivative the opcode's output takes by x, y and z when its operands range over their
-//! intervals. The component search (`survey::components`) uses them to keep only the cells
+//! intervals. The component search (`pipeline::components`) uses them to keep only the cells
 //! where a component can have an extreme point (docs/components.md).
 //!
 //! What "every derivative" means where f is not differentiable: the partials enclose the

@@ -91,7 +91,7 @@ pub struct MarchSettings {
     /// A failure caps the local step near it at this fraction of the step its triangle was
     /// made with. Default 0.5.
     pub refine_factor: f64,
-    /// Parallel pieces (`survey::pieces`): a component marched from a start point whose
+    /// Parallel pieces (`pipeline::pieces`): a component marched from a start point whose
     /// estimated triangle count (its area over √3/4·δ², from a coarse survey) is above this is
     /// cut along planes into slabs marched on separate threads. Default 200 000 (the fine
     /// sphere of issue 14, 1.34 M triangles, is cut; no gallery example is). `u64::MAX`

@@ -1,5 +1,5 @@
 //! Maps keyed by the bit patterns of f64 coordinates: how the writers share the vertices of
-//! meshes in one file, and how the joins (`survey::creases::merge`, `survey::pieces`) find
+//! meshes in one file, and how the joins (`pipeline::crease_net::merge`, `pipeline::pieces`) find
 //! the bit-identical vertices of shared polygons.
 
 /// A fast hash for keys made of f64 bit patterns (SipHash's resistance to chosen keys is not

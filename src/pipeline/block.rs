@@ -49,7 +49,7 @@ pub struct Meshed {
     pub flipped: bool,
     /// The creases, when the mesh was made crease by crease.
     pub creases: Option<CreaseCounts>,
-    /// Slabs the component was cut into and marched on separate threads (`survey::pieces`);
+    /// Slabs the component was cut into and marched on separate threads (`pipeline::pieces`);
     /// 1 when it was marched whole.
     pub pieces: usize,
     /// Wall-clock time to build and mesh the block, in seconds.
@@ -299,7 +299,7 @@ fn mesh_block(
         uniform: def.uniform,
     };
     // A large component from a start point is marched in pieces on the pool's threads
-    // (`survey::pieces`); not a surface with creases, whose pieces are its smooth forms.
+    // (`pipeline::pieces`); not a surface with creases, whose pieces are its smooth forms.
     let fork: Option<&crate::surface::Fork<'_>> =
         if creased.is_none() { Some(&fork) } else { None };
     let pieced = pieces::march(&mut surface, fork, &input, &settings, Some(progress))

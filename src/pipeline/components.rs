@@ -242,7 +242,7 @@ pub fn mesh_components(
     )
 }
 
-/// [`mesh_components`] with the components marched on the rayon pool (`survey::ahead`):
+/// [`mesh_components`] with the components marched on the rayon pool:
 /// each march on a fresh oracle from `fork`, so a march never depends on what the oracle
 /// evaluated before (the warm start of `dist`), and the components accepted in seed order
 /// exactly as one thread would. The same mesh, bit for bit, for any number of threads; for

@@ -388,7 +388,7 @@ pub(crate) fn merge(parts: &[Mesh]) -> Mesh {
 }
 
 /// `merge`, where given `only` the positions that may be shared: then only those go into a
-/// table (which stays in cache: the slabs of `survey::pieces` share only their cut
+/// table (which stays in cache: the slabs of `pipeline::pieces` share only their cut
 /// polygons), and each vertex is looked up there rather than hashed into a table of all.
 /// Also returns which vertices of the result are among `only` (none without it).
 pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<bool>) {

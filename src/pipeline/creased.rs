@@ -1,4 +1,4 @@
-//! Mesh blocks on surfaces with creases (`survey::creases`): which blocks are meshed piece by
+//! Mesh blocks on surfaces with creases (`crease_net`): which blocks are meshed piece by
 //! piece, and the diagnostics when that fails. docs/creases.md has the rules:
 //! - a block with a `box` (and no `front` or `bounds`) is meshed crease by crease in the box;
 //!   with a `start` too, only the connected part of that mesh nearest the start is kept;

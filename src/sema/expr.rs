@@ -4,7 +4,7 @@
 //! `blend(S1, S2, c1, c2, mu)` = (1−mu)(d1/c1)(d2/c2) − mu(1 − d1/c1 − d2/c2)^3, d_i = dist(S_i).
 //! Recursion follows the AST, whose depth the parser bounds.
 
-use crate::diag::messages;
+use crate::diag::{messages, suggest};
 use crate::span::Span;
 use crate::syntax::ast;
 
@@ -256,7 +256,7 @@ impl<'f> Checker<'f> {
         }
         let suggestion = if self.suggestions_wanted() {
             let names = self.visible_names(cx);
-            crate::diag::suggest::nearest(n, names.iter().map(String::as_str)).map(str::to_string)
+            suggest::nearest(n, names.iter().map(String::as_str)).map(str::to_string)
         } else {
             None
         };
@@ -396,7 +396,7 @@ impl<'f> Checker<'f> {
             return self.fail(cx, messages::curve_as_value(span, &format!("`{name}(…)`")));
         }
         let suggestion = if self.suggestions_wanted() {
-            crate::diag::suggest::nearest(name, self.callable_names()).map(str::to_string)
+            suggest::nearest(name, self.callable_names()).map(str::to_string)
         } else {
             None
         };

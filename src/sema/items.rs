@@ -6,8 +6,8 @@ use std::collections::BTreeMap;
 
 use glam::DVec3;
 
-use crate::diag::Diagnostic;
 use crate::diag::messages::{self, FoundInsteadOfCurve};
+use crate::diag::{Diagnostic, suggest};
 use crate::span::Span;
 use crate::syntax::ast;
 
@@ -377,7 +377,7 @@ impl<'f> Checker<'f> {
                         .filter(|(_, d)| self.decls[**d].kind == Kind::Patch)
                         .map(|(k, _)| *k)
                         .collect();
-                    let s = crate::diag::suggest::nearest(n, names).map(str::to_string);
+                    let s = suggest::nearest(n, names).map(str::to_string);
                     self.diags
                         .push(messages::unknown_name(p.span, n, s.as_deref()));
                     return None;
@@ -420,7 +420,7 @@ impl<'f> Checker<'f> {
                         .filter(|(_, d)| self.decls[**d].kind == Kind::Curve)
                         .map(|(k, _)| *k)
                         .collect();
-                    let s = crate::diag::suggest::nearest(n, names).map(str::to_string);
+                    let s = suggest::nearest(n, names).map(str::to_string);
                     self.diags
                         .push(messages::unknown_name(e.span, n, s.as_deref()));
                     return None;
@@ -559,7 +559,7 @@ impl<'f> Checker<'f> {
             let key = o.name.name.as_str();
             if !MESH_OPTIONS.contains(&key) {
                 unknown_options = true;
-                let s = crate::diag::suggest::nearest(key, MESH_OPTIONS).map(str::to_string);
+                let s = suggest::nearest(key, MESH_OPTIONS).map(str::to_string);
                 self.diags.push(messages::unknown_mesh_option(
                     o.name.span,
                     key,

@@ -124,7 +124,7 @@ fn a_fine_sphere_is_the_same_bytes_for_any_thread_count() {
     let size = same_bytes(&file, &dir, &["obj", "glb", "off"]);
     // At 0.02 the sphere has ≈ 335 k triangles: several chunks of OBJ lines.
     assert!(size > 1_000_000, "{size} bytes of OBJ");
-    // Above 200 k triangles the sphere is marched in two slabs (`survey::pieces`, issue 14
+    // Above 200 k triangles the sphere is marched in two slabs (`pipeline::pieces`, issue 14
     // M4): the bytes above are those of a cut mesh, joined watertight.
     let run = surfc(
         &["mesh", "sphere.surf", "-o", "s.glb", "--json", "-q"],
@@ -144,7 +144,7 @@ fn a_fine_sphere_is_the_same_bytes_for_any_thread_count() {
 }
 
 /// Four balls and two tori in a box, one product (no creases): six components, meshed by
-/// the component search with several marches at once (`survey::ahead`); two balls and a
+/// the component search with several marches at once (`pipeline::components`); two balls and a
 /// torus through `offset` (a `dist` surface, whose oracle remembers its last foot point:
 /// each march starts on a fresh one, so the marches run ahead give the same bits); and three
 /// balls and a torus as a `union` (the crease search, whose smooth components are marched

@@ -13,7 +13,7 @@
 //!
 //! `SURFC_SWEEP=N` runs N shapes (default 60, ~20 s in the test profile; 200 for the full
 //! run); `SURFC_SWEEP_SEED=S` draws another set of shapes (default the fixed seed below);
-//! `SURFC_SWEEP_PIECES=N` marches each shape as `surfc mesh` does (`survey::pieces`), with
+//! `SURFC_SWEEP_PIECES=N` marches each shape as `surfc mesh` does (`pipeline::pieces`), with
 //! a component above about N triangles cut into slabs (say 2000: most are cut);
 //! `SURFC_SWEEP_ONLY=i` meshes only shape #i of the run (to trace it; `SURFC_SWEEP_OBJ=path`
 //! also writes its mesh to look at). The figures (right, refused, wrong, time) are printed,
@@ -156,7 +156,7 @@ fn generated_shapes_are_meshed_right_or_refused() {
     let only: Option<usize> = env_number("SURFC_SWEEP_ONLY");
     let mut voxel_checked = 0;
     // `SURFC_SWEEP_PIECES=N`: each shape marched as `surfc mesh` marches a start-point block
-    // (`survey::pieces`, on the rayon pool), with a component of more than about N
+    // (`pipeline::pieces`, on the rayon pool), with a component of more than about N
     // triangles cut into slabs (up to 3) whose cut curves are traced and shared.
     let pieces_above: Option<u64> = env_number("SURFC_SWEEP_PIECES");
     let settings = match pieces_above {

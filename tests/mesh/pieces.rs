@@ -1,4 +1,4 @@
-//! Parallel pieces (issue 14, M4; `survey::pieces`): a component large enough to be cut is
+//! Parallel pieces (issue 14, M4; `pipeline::pieces`): a component large enough to be cut is
 //! marched as slabs between planes whose cut curves are traced once and shared. Each case
 //! lowers `MarchSettings::pieces_above` so that a moderate mesh is cut, and asserts that it
 //! was cut, that the joined mesh is watertight, one component, of the known genus, free of
