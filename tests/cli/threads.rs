@@ -110,6 +110,7 @@ fn every_gallery_file_is_the_same_bytes_for_any_thread_count() {
 }
 
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn a_fine_sphere_is_the_same_bytes_for_any_thread_count() {
     let step = std::env::var("SURFC_THREADS_STEP").unwrap_or_else(|_| "0.02".into());
     let dir = scratch("threads-sphere");
@@ -163,6 +164,7 @@ mesh joined = joined { step: 0.08; box: (-2.5, -2.5, -2.5) .. (2.5, 2.5, 2.5); }
 ";
 
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn components_marched_at_once_are_the_same_bytes_for_any_thread_count() {
     let step = std::env::var("SURFC_THREADS_SCENE_STEP").unwrap_or_else(|_| "0.05".into());
     let dir = scratch("threads-components");

@@ -233,14 +233,14 @@ fn scene(rng: &mut Rng) -> Scene {
     }
 }
 
-/// Must show 2. `COMPONENT_CASES` sets the number of scenes (default 20, about 10 s on one
+/// Must show 2. `COMPONENT_CASES` sets the number of scenes (default 8, about 4 s on one
 /// core; `.ci/run` runs 120), `COMPONENT_SEED` the generator's seed.
 #[test]
 fn random_disjoint_shapes_are_all_found() {
     let cases: usize = std::env::var("COMPONENT_CASES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(20);
+        .unwrap_or(8);
     let seed: u64 = std::env::var("COMPONENT_SEED")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -504,14 +504,14 @@ fn thin_scene(rng: &mut Rng) -> (Scene, f64) {
 /// Features smaller than the step in a box, without a start: every shape is found and meshed
 /// whole at its local step, or the block fails with a diagnostic; never a shape dropped or a
 /// wrong count reported as success (a thin torus used to be taken for "a component smaller
-/// than the step" and left out). `THIN_SCENES` sets the number of scenes (default 8; `.ci/run`
+/// than the step" and left out). `THIN_SCENES` sets the number of scenes (default 4; `.ci/run`
 /// runs 24).
 #[test]
 fn random_scenes_with_features_smaller_than_the_step() {
     let cases: usize = std::env::var("THIN_SCENES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(8);
+        .unwrap_or(4);
     let mut rng = Rng(0x7417_C0DE_2026_1130);
     let (mut right, mut refused) = (0, 0);
     for case in 0..cases {

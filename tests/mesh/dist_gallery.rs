@@ -92,11 +92,13 @@ fn assert_vertices_on_surface(path: &str, names: &[&str]) {
 }
 
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn g2_set_dist_meshes_have_every_vertex_on_the_surface() {
     assert_vertices_on_surface("examples/g2_set.surf", &["roof", "blend", "closure"]);
 }
 
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn intersecting_patches_meshes_have_every_vertex_on_the_surface() {
     assert_vertices_on_surface(
         "examples/intersecting_patches.surf",

@@ -303,6 +303,7 @@ pub fn gallery_mesh(path: &Path) -> &'static Example {
 /// bit. (Their gradients may differ in the sign of a zero partial; no example's mesh depends
 /// on it, and this test says so if one ever does.)
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn engines_mesh_the_gallery_alike() {
     let bits = |v: &[glam::DVec3]| -> Vec<[u64; 3]> {
         v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()

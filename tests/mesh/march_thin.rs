@@ -78,6 +78,7 @@ fn genus2_plate_with_a_bridge_thinner_than_the_step() {
 /// triangles across it reached 13.8° before the quality stage (issue 10 asks 15°), 29.5°
 /// with its first version, 30.2° with the ODT, the corner removal and grading 0.2.
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn flat_ellipsoid_at_five_times_its_thickness() {
     thin_case(&superquadric(2.0, 2.0, 0.04, 2), 0.2, 30.0);
 }
