@@ -35,6 +35,7 @@ pub mod verify;
 
 use glam::DVec3;
 
+pub(crate) use marcher::changes_sign;
 pub use ring::{FrontId, NodeId, PointId};
 pub use settings::MarchSettings;
 

@@ -231,7 +231,7 @@ pub fn mesh_components(
     march_settings: &MarchSettings,
     settings: &SearchSettings,
 ) -> Result<Components, SearchError> {
-    mesh_components_beside(
+    search_components(
         surface,
         None,
         marching,
@@ -239,6 +239,7 @@ pub fn mesh_components(
         march_settings,
         settings,
         &Mesh::default(),
+        false,
     )
 }
 
@@ -263,13 +264,16 @@ pub fn mesh_components_forked(
         march_settings,
         settings,
         &Mesh::default(),
+        false,
     )
 }
 
 /// [`mesh_components`] around a mesh made already (`existing`, the smooth pieces of a surface
 /// with creases): seeds it covers start nothing. The result's mesh begins with `existing`;
 /// its component count and seeds are those of the new components only. With `fork`, the
-/// marches run as [`mesh_components_forked`] says.
+/// marches run as [`mesh_components_forked`] says. A seed where f touches zero without
+/// changing sign starts nothing: for a surface with creases that is the inner face of a union
+/// (two solids side by side, f ≤ 0 on both sides), which is no part of the surface.
 pub fn mesh_components_beside(
     surface: &mut dyn Surface,
     fork: Option<&Fork<'_>>,
@@ -287,11 +291,14 @@ pub fn mesh_components_beside(
         march_settings,
         settings,
         existing,
+        true,
     )
 }
 
 /// The search of [`mesh_components_beside`]; with `fork`, the marches run as
-/// [`mesh_components_forked`] says, else one after another on `surface`.
+/// [`mesh_components_forked`] says, else one after another on `surface`. With
+/// `skip_touching`, seeds where f does not change sign start nothing.
+#[allow(clippy::too_many_arguments)]
 fn search_components(
     surface: &mut dyn Surface,
     fork: Option<&Fork<'_>>,
@@ -300,6 +307,7 @@ fn search_components(
     march_settings: &MarchSettings,
     settings: &SearchSettings,
     existing: &Mesh,
+    skip_touching: bool,
 ) -> Result<Components, SearchError> {
     let step = marching.step;
     let max_triangles = marching.max_triangles;
@@ -333,6 +341,7 @@ fn search_components(
         cover: Cover::new(step),
         out: Components::default(),
         small: Vec::new(),
+        skip_touching,
     };
     let Search { cover, out, .. } = &mut search;
     cover.add(&mut out.mesh, existing);
@@ -360,15 +369,16 @@ fn search_components(
         let seedless_floor = floor.max(SEEDLESS_LEAF * step);
         let finer_than_floor = |leaf: f64| (leaf >= seedless_floor).then_some(leaf);
         let finer = match search.seeds_of(cell) {
-            None => {
+            CellSeeds::Touching => None,
+            CellSeeds::Missed => {
                 let finer = finer_than_floor(0.5 * pending.leaf);
                 if finer.is_none() {
                     unseeded.push(cell);
                 }
                 finer
             }
-            Some(found) if found.is_empty() => finer_than_floor(0.5 * pending.leaf),
-            Some(found) => {
+            CellSeeds::Found(found) if found.is_empty() => finer_than_floor(0.5 * pending.leaf),
+            CellSeeds::Found(found) => {
                 let mut finest = f64::INFINITY;
                 for sp in found {
                     let seed = search.sized(sp);
@@ -462,6 +472,27 @@ struct Search<'a> {
     out: Components,
     /// Seeds of components smaller than their local step (warned once).
     small: Vec<Seed>,
+    /// Seeds where f touches zero without changing sign start nothing.
+    skip_touching: bool,
+}
+
+/// What Newton from a cell's centre found.
+enum Seeded {
+    At(SurfacePoint),
+    /// A place where f touches zero without changing sign (with `skip_touching`).
+    Touching,
+    Missed,
+}
+
+/// The seeds of a cell.
+enum CellSeeds {
+    /// Seeds (none: no seed, and no sign change over the cell).
+    Found(Vec<SurfacePoint>),
+    /// f touches zero there without changing sign (with `skip_touching`): no seed, and no
+    /// reason to look closer.
+    Touching,
+    /// f changes sign over the cell but no seed converged in the box.
+    Missed,
 }
 
 /// A seed with the local step there.
@@ -511,7 +542,7 @@ impl Search<'_> {
     /// around it), and lands inside the box. A centre far from the surface is not this cell's
     /// seed (a cell nearer the surface gives it): giving up early keeps the cells the interval
     /// bound could not drop cheap.
-    fn seed_from(&mut self, cell: Cell) -> Option<SurfacePoint> {
+    fn seed_from(&mut self, cell: Cell) -> Seeded {
         let margin = DVec3::splat(self.settings.seed_reach * self.step);
         let (lo, hi) = (cell.lo - margin, cell.hi + margin);
         let near = |u: DVec3| u.cmpge(lo).all() && u.cmple(hi).all();
@@ -520,13 +551,22 @@ impl Search<'_> {
         for _ in 0..self.settings.seed_iterations {
             let vg = self.surface.value_gradient(u);
             let g2 = vg.gradient.length_squared();
+            if vg.value == 0.0 && g2 == 0.0 {
+                // On a tie of operands whose gradients cancel: where f touches zero between
+                // two solids side by side, unless it changes sign (then a seed is near).
+                return if self.skip_touching && !self.sign_changes(cell) {
+                    Seeded::Touching
+                } else {
+                    Seeded::Missed
+                };
+            }
             if !(vg.value.is_finite() && g2 > 0.0 && g2.is_finite()) {
-                return None;
+                return Seeded::Missed;
             }
             let delta = vg.gradient * (vg.value / g2);
             u -= delta;
             if !near(u) {
-                return None;
+                return Seeded::Missed;
             }
             if delta.length() < SEED_CLOSE * self.step {
                 close = true;
@@ -534,34 +574,49 @@ impl Search<'_> {
             }
         }
         if !close {
-            return None;
+            return Seeded::Missed;
         }
-        let sp = surface_point(
+        let Ok(sp) = surface_point(
             self.surface,
             u,
             self.step,
             &self.march_settings.surface_point,
-        )
-        .ok()?;
-        (near(sp.point) && self.inside(sp.point)).then_some(sp)
+        ) else {
+            return Seeded::Missed;
+        };
+        if !(near(sp.point) && self.inside(sp.point)) {
+            return Seeded::Missed;
+        }
+        if self.skip_touching && !march::changes_sign(&mut *self.surface, &sp, self.step) {
+            return Seeded::Touching;
+        }
+        Seeded::At(sp)
     }
 
     /// The seeds of a cell: from its centre, else from its octants' centres where f changes
-    /// sign over the cell (otherwise the interval bound was only loose there). None when f
-    /// changes sign but no seed converged in the box.
-    fn seeds_of(&mut self, cell: Cell) -> Option<Vec<SurfacePoint>> {
-        if let Some(sp) = self.seed_from(cell) {
-            return Some(vec![sp]);
+    /// sign over the cell (otherwise the interval bound was only loose there).
+    fn seeds_of(&mut self, cell: Cell) -> CellSeeds {
+        match self.seed_from(cell) {
+            Seeded::At(sp) => return CellSeeds::Found(vec![sp]),
+            Seeded::Touching => return CellSeeds::Touching,
+            Seeded::Missed => {}
         }
         if !self.sign_changes(cell) {
-            return Some(Vec::new());
+            return CellSeeds::Found(Vec::new());
         }
         let found: Vec<SurfacePoint> = cell
             .octants()
             .into_iter()
-            .filter_map(|c| self.seed_from(c))
+            .filter_map(|c| match self.seed_from(c) {
+                Seeded::At(sp) => Some(sp),
+                _ => None,
+            })
             .collect();
-        (!found.is_empty()).then_some(found)
+        if found.is_empty() {
+            CellSeeds::Missed
+        } else {
+            CellSeeds::Found(found)
+        }
     }
 
     /// Whether f takes both signs at the corners and centre of the cell.

@@ -7,6 +7,7 @@
 
 pub mod cells;
 pub mod clusters;
+pub mod faces;
 pub mod gradient_jump;
 pub mod sizing;
 pub mod spine;

@@ -64,49 +64,129 @@ struct Cand {
     picks: Picks,
 }
 
-/// A linear form Σ cₖ·bₖ + c over the branches: dense coefficients, the constant last.
+/// A linear form Σ cₖ·bₖ + c over the branches: the branches it uses with their
+/// coefficients (sorted by branch, none zero) and the constant. Sparse, because a solid of
+/// a hundred primitives has hundreds of branches and each form uses one or two of them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Form {
-    pub coefficients: Vec<f64>,
+    pub terms: Vec<(usize, f64)>,
+    pub constant: f64,
 }
 
 impl Form {
+    fn branch(k: usize) -> Form {
+        Form {
+            terms: vec![(k, 1.0)],
+            constant: 0.0,
+        }
+    }
+
+    fn constant(c: f64) -> Form {
+        Form {
+            terms: Vec::new(),
+            constant: c,
+        }
+    }
+
     fn key(&self) -> Vec<u64> {
         // +0 and −0 are one coefficient.
-        self.coefficients
+        let mut key: Vec<u64> = self
+            .terms
             .iter()
-            .map(|c| (c + 0.0).to_bits())
-            .collect()
+            .flat_map(|&(k, c)| [k as u64, (c + 0.0).to_bits()])
+            .collect();
+        key.push((self.constant + 0.0).to_bits());
+        key
     }
 
-    fn constant(&self) -> f64 {
-        *self.coefficients.last().unwrap_or(&0.0)
+    /// s·self.
+    fn scaled(&self, s: f64) -> Form {
+        Form {
+            terms: self
+                .terms
+                .iter()
+                .map(|&(k, c)| (k, s * c))
+                .filter(|&(_, c)| c != 0.0)
+                .collect(),
+            constant: s * self.constant,
+        }
     }
 
-    /// The form's value and gradient from the branches' values and gradients.
-    pub fn combine(&self, branches: &[ValueGrad]) -> ValueGrad {
+    /// self + s·other.
+    fn plus(&self, s: f64, other: &Form) -> Form {
+        let (a, b) = (&self.terms, &other.terms);
+        let mut terms = Vec::with_capacity(a.len() + b.len());
+        let (mut i, mut j) = (0, 0);
+        while i < a.len() || j < b.len() {
+            let next = match (a.get(i), b.get(j)) {
+                (Some(&(ka, ca)), Some(&(kb, cb))) if ka == kb => {
+                    i += 1;
+                    j += 1;
+                    (ka, ca + s * cb)
+                }
+                (Some(&(ka, ca)), Some(&(kb, _))) if ka < kb => {
+                    i += 1;
+                    (ka, ca)
+                }
+                (Some(&(ka, ca)), None) => {
+                    i += 1;
+                    (ka, ca)
+                }
+                (_, Some(&(kb, cb))) => {
+                    j += 1;
+                    (kb, s * cb)
+                }
+                (None, None) => break,
+            };
+            if next.1 != 0.0 {
+                terms.push(next);
+            }
+        }
+        Form {
+            terms,
+            constant: self.constant + s * other.constant,
+        }
+    }
+
+    /// The branches the form uses.
+    pub fn branches(&self) -> impl Iterator<Item = usize> + '_ {
+        self.terms.iter().map(|t| t.0)
+    }
+
+    /// The form's value and gradient from its branches' values and gradients.
+    pub fn combine(&self, mut branch: impl FnMut(usize) -> ValueGrad) -> ValueGrad {
         let mut out = ValueGrad {
-            value: self.constant(),
+            value: self.constant,
             gradient: DVec3::ZERO,
         };
-        for (c, b) in self.coefficients.iter().zip(branches) {
-            if *c != 0.0 {
-                out.value += c * b.value;
-                out.gradient += *c * b.gradient;
-            }
+        for &(k, c) in &self.terms {
+            let b = branch(k);
+            out.value += c * b.value;
+            out.gradient += c * b.gradient;
         }
         out
     }
 
     /// The form's value from the branches' values.
     pub fn value(&self, branches: &[f64]) -> f64 {
-        let mut v = self.constant();
-        for (c, b) in self.coefficients.iter().zip(branches) {
-            if *c != 0.0 {
-                v += c * b;
-            }
+        let mut v = self.constant;
+        for &(k, c) in &self.terms {
+            v += c * branches[k];
         }
         v
+    }
+
+    /// An interval holding the form where each branch k lies in `bound(k)`.
+    pub fn bound(&self, mut bound: impl FnMut(usize) -> Interval) -> Interval {
+        let mut acc = Interval::point(self.constant);
+        for &(k, c) in &self.terms {
+            acc = interval(
+                Op::Add,
+                acc,
+                interval(Op::Mul, bound(k), Interval::point(c)),
+            );
+        }
+        acc
     }
 }
 
@@ -164,6 +244,25 @@ impl Spine {
             terms,
             branches,
             used,
+        })
+    }
+
+    /// A placeholder spine (the constant 0) for a moment's swap.
+    fn empty() -> Spine {
+        Spine {
+            terms: vec![Term::Const(0.0)],
+            branches: 0,
+            used: vec![true],
+        }
+    }
+
+    /// Whether any term chooses (min, max, abs or a selector): else the spine is one form.
+    pub fn has_choice(&self) -> bool {
+        self.terms.iter().any(|t| {
+            matches!(
+                t,
+                Term::Min(..) | Term::Max(..) | Term::Abs(_) | Term::Select(..)
+            )
         })
     }
 
@@ -263,22 +362,10 @@ impl Spine {
         values: Option<(&[f64], f64)>,
         max: usize,
     ) -> Result<Vec<Cand>, SpineError> {
-        let n = self.branches + 1;
-        let unit = |k: usize, c: f64, value: f64| {
-            let mut coefficients = vec![0.0; n];
-            coefficients[k] = c;
-            Cand {
-                form: Form { coefficients },
-                value,
-                picks: Vec::new(),
-            }
-        };
         let map = |list: &[Cand], s: f64| -> Vec<Cand> {
             list.iter()
                 .map(|c| Cand {
-                    form: Form {
-                        coefficients: c.form.coefficients.iter().map(|x| s * x).collect(),
-                    },
+                    form: c.form.scaled(s),
                     value: s * c.value,
                     picks: c.picks.clone(),
                 })
@@ -293,8 +380,16 @@ impl Spine {
                 continue;
             }
             let list = match *t {
-                Term::Branch(k) => vec![unit(k, 1.0, values.map_or(0.0, |(b, _)| b[k]))],
-                Term::Const(c) => vec![unit(n - 1, c, c)],
+                Term::Branch(k) => vec![Cand {
+                    form: Form::branch(k),
+                    value: values.map_or(0.0, |(b, _)| b[k]),
+                    picks: Vec::new(),
+                }],
+                Term::Const(c) => vec![Cand {
+                    form: Form::constant(c),
+                    value: c,
+                    picks: Vec::new(),
+                }],
                 Term::Neg(a) => map(&terms[a], -1.0),
                 Term::Scale(s, a) => map(&terms[a], s),
                 Term::Add(a, b) | Term::Sub(a, b) => {
@@ -306,17 +401,10 @@ impl Spine {
                     let mut out = Vec::new();
                     for ca in &terms[a] {
                         for cb in &terms[b] {
-                            let coefficients = ca
-                                .form
-                                .coefficients
-                                .iter()
-                                .zip(&cb.form.coefficients)
-                                .map(|(x, y)| x + s * y)
-                                .collect();
                             let mut picks = ca.picks.clone();
                             picks.extend_from_slice(&cb.picks);
                             out.push(Cand {
-                                form: Form { coefficients },
+                                form: ca.form.plus(s, &cb.form),
                                 value: ca.value + s * cb.value,
                                 picks,
                             });
@@ -390,6 +478,152 @@ impl Spine {
         Ok(terms.pop().unwrap_or_default())
     }
 
+    /// The spine over a region where each branch k takes values in `bound(k)` (outward
+    /// rounded; an empty or unknown bound is the whole line): every choice that the bounds
+    /// decide is made (a `min` whose one operand lies below the other throughout, an `abs`
+    /// of one sign, a selector of one sign), so the result picks among the forms that can be
+    /// chosen in the region only — the pruning of Fidget and libfive, which makes the work
+    /// near a point depend on the primitives near it. Also returns the bound of f over the
+    /// region. Branch ids stay those of `self`; only the branches of the result are bounded.
+    pub fn pruned(&self, bound: &mut dyn FnMut(usize) -> Interval) -> (Spine, Interval) {
+        let entire = |i: Interval| if i.is_empty() { Interval::ENTIRE } else { i };
+        // Each term's interval, and what it stands for in the result: itself, or an operand
+        // it was decided to be (negated for an abs of negative sign).
+        let mut iv: Vec<Interval> = Vec::with_capacity(self.terms.len());
+        #[derive(Clone, Copy)]
+        enum Is {
+            Kept,
+            Same(usize),
+            Negated(usize),
+        }
+        let mut is: Vec<Is> = Vec::with_capacity(self.terms.len());
+        for t in &self.terms {
+            let (value, what) = match *t {
+                Term::Branch(k) => (entire(bound(k)), Is::Kept),
+                Term::Const(c) => (Interval::point(c), Is::Kept),
+                Term::Neg(a) => (interval(Op::Neg, iv[a], iv[a]), Is::Kept),
+                Term::Scale(c, a) => (interval(Op::Mul, iv[a], Interval::point(c)), Is::Kept),
+                Term::Add(a, b) => (interval(Op::Add, iv[a], iv[b]), Is::Kept),
+                Term::Sub(a, b) => (interval(Op::Sub, iv[a], iv[b]), Is::Kept),
+                Term::Min(a, b) | Term::Max(a, b) => {
+                    let (x, y) = (iv[a], iv[b]);
+                    let min = matches!(t, Term::Min(..));
+                    let hull = if min {
+                        Interval::new(x.lo.min(y.lo), x.hi.min(y.hi))
+                    } else {
+                        Interval::new(x.lo.max(y.lo), x.hi.max(y.hi))
+                    };
+                    // a is always chosen where it lies strictly on the chosen side of b.
+                    let (a_wins, b_wins) = if min {
+                        (x.hi < y.lo, y.hi < x.lo)
+                    } else {
+                        (x.lo > y.hi, y.lo > x.hi)
+                    };
+                    if a_wins {
+                        (x, Is::Same(a))
+                    } else if b_wins {
+                        (y, Is::Same(b))
+                    } else {
+                        (hull, Is::Kept)
+                    }
+                }
+                Term::Abs(a) => {
+                    let x = iv[a];
+                    if x.lo >= 0.0 {
+                        (x, Is::Same(a))
+                    } else if x.hi <= 0.0 {
+                        (interval(Op::Neg, x, x), Is::Negated(a))
+                    } else {
+                        (interval(Op::Abs, x, x), Is::Kept)
+                    }
+                }
+                Term::Select(a, b, sel) => {
+                    let s = iv[sel];
+                    if s.lo >= 0.0 {
+                        (iv[a], Is::Same(a))
+                    } else if s.hi < 0.0 {
+                        (iv[b], Is::Same(b))
+                    } else {
+                        (iv[a].hull(iv[b]), Is::Kept)
+                    }
+                }
+            };
+            iv.push(value);
+            is.push(what);
+        }
+        // The result: the terms the root reaches, each decided choice replaced by the operand
+        // it stands for; built from the root down, emitted in topological order.
+        let mut new_index: Vec<Option<usize>> = vec![None; self.terms.len()];
+        let mut out: Vec<Term> = Vec::new();
+        fn emit(
+            i: usize,
+            terms: &[Term],
+            is: &[Is],
+            new_index: &mut [Option<usize>],
+            out: &mut Vec<Term>,
+        ) -> usize {
+            if let Some(n) = new_index[i] {
+                return n;
+            }
+            let t = match is[i] {
+                Is::Same(a) => {
+                    let n = emit(a, terms, is, new_index, out);
+                    new_index[i] = Some(n);
+                    return n;
+                }
+                Is::Negated(a) => Term::Neg(emit(a, terms, is, new_index, out)),
+                Is::Kept => {
+                    let mut e = |j: usize| emit(j, terms, is, new_index, out);
+                    match terms[i] {
+                        t @ (Term::Branch(_) | Term::Const(_)) => t,
+                        Term::Neg(a) => Term::Neg(e(a)),
+                        Term::Scale(c, a) => Term::Scale(c, e(a)),
+                        Term::Abs(a) => Term::Abs(e(a)),
+                        Term::Add(a, b) => {
+                            let a = e(a);
+                            Term::Add(a, e(b))
+                        }
+                        Term::Sub(a, b) => {
+                            let a = e(a);
+                            Term::Sub(a, e(b))
+                        }
+                        Term::Min(a, b) => {
+                            let a = e(a);
+                            Term::Min(a, e(b))
+                        }
+                        Term::Max(a, b) => {
+                            let a = e(a);
+                            Term::Max(a, e(b))
+                        }
+                        Term::Select(a, b, s) => {
+                            let a = e(a);
+                            let b = e(b);
+                            Term::Select(a, b, e(s))
+                        }
+                    }
+                }
+            };
+            out.push(t);
+            new_index[i] = Some(out.len() - 1);
+            out.len() - 1
+        }
+        let root = self.terms.len() - 1;
+        let top = emit(root, &self.terms, &is, &mut new_index, &mut out);
+        // The root must be last: a root decided to an earlier term is that term's subtree,
+        // which `emit` ends with.
+        debug_assert_eq!(top, out.len() - 1);
+        let spine = Spine::new(out, self.branches).unwrap_or_else(|_| self.clone());
+        (spine, iv[root])
+    }
+
+    /// The branches the spine's terms use.
+    pub fn branches_used(&self) -> impl Iterator<Item = usize> + '_ {
+        self.terms.iter().filter_map(|t| match *t {
+            Term::Branch(k) => Some(k),
+            _ => None,
+        })
+    }
+
     /// How two forms are told apart, from their picks: by one `Select` (its selector term),
     /// preferring a pair of patterns that differ in that choice alone; by plain `min`, `max`
     /// or `abs` only (their seam is where the two forms are equal); or only by two lifted
@@ -430,7 +664,14 @@ enum Between {
     Apart,
 }
 
-/// A surface with creases: its spine, the branch surfaces, and the forms (the smooth pieces).
+/// A surface with creases: its spine, the branch surfaces, the forms met so far (the smooth
+/// pieces), and which of them are one face (coincident sheets).
+///
+/// A spine that chooses by selectors (a lifted smooth boolean) has its forms enumerated once,
+/// with their picks, at most [`MAX_FORMS`]; any other spine registers its forms as the crease
+/// search meets them (`Spine::pruned` per cell, `active` at points), in a deterministic
+/// order, with no cap: a part of hundreds of faces has hundreds of forms, a few near each
+/// place.
 pub struct Creased {
     spine: Spine,
     branches: Vec<Box<dyn Surface>>,
@@ -438,22 +679,34 @@ pub struct Creased {
     index: HashMap<Vec<u64>, usize>,
     /// How each pair of forms is told apart (both orders; absent: `Between::Plain`).
     seams: HashMap<(usize, usize), Between>,
-    scratch: Vec<ValueGrad>,
+    /// Whether the forms were enumerated at construction (a spine with selectors).
+    enumerated: bool,
+    /// Union-find over forms: forms that are one face (the same oriented sheet).
+    parent: Vec<usize>,
+    /// The branches' values and gradients at `at` (the last point asked), as far as asked.
+    at: Option<[u64; 3]>,
+    cache: Vec<Option<ValueGrad>>,
 }
 
-/// The most forms (smooth pieces) a creased surface may have: each crease search tries the
-/// pairs of forms in a cell, and more pieces than this is a pattern explosion (sums of many
-/// `abs`), not a solid.
+/// The most forms (smooth pieces) of a spine that chooses by selectors (a lifted smooth
+/// boolean), whose forms are enumerated at once: nested smooth booleans multiply their
+/// operands' pieces. Plain spines (min, max, abs) have no cap.
 pub const MAX_FORMS: usize = 64;
+
+/// The most forms one octree cell of the crease search may pick among: a pattern explosion
+/// (sums of many `abs`), not a solid.
+pub const MAX_CELL_FORMS: usize = 4096;
 
 impl Creased {
     pub fn new(spine: Spine, branches: Vec<Box<dyn Surface>>) -> Result<Creased, SpineError> {
         if branches.len() != spine.branch_count() {
             return Err(SpineError::Malformed(0));
         }
-        let with_picks = spine.forms_with_picks(MAX_FORMS)?;
+        let mut forms = Vec::new();
         let mut seams = HashMap::new();
-        if spine.has_selectors() {
+        let enumerated = spine.has_selectors();
+        if enumerated {
+            let with_picks = spine.forms_with_picks(MAX_FORMS)?;
             for (i, (_, pi)) in with_picks.iter().enumerate() {
                 for (j, (_, pj)) in with_picks.iter().enumerate().skip(i + 1) {
                     let b = spine.between(pi, pj);
@@ -463,38 +716,87 @@ impl Creased {
                     }
                 }
             }
+            forms = with_picks.into_iter().map(|f| f.0).collect();
         }
-        let forms: Vec<Form> = with_picks.into_iter().map(|f| f.0).collect();
         let index = forms
             .iter()
             .enumerate()
             .map(|(i, f)| (f.key(), i))
             .collect();
+        let n = branches.len();
+        let parent = (0..forms.len()).collect();
         Ok(Creased {
             spine,
             branches,
             forms,
             index,
             seams,
-            scratch: Vec::new(),
+            enumerated,
+            parent,
+            at: None,
+            cache: vec![None; n],
         })
     }
 
+    /// The forms registered so far (all of them for a spine with selectors).
     pub fn form_count(&self) -> usize {
         self.forms.len()
     }
 
-    fn eval_branches(&mut self, p: DVec3) {
-        self.scratch.clear();
-        for b in &mut self.branches {
-            self.scratch.push(b.value_gradient(p));
-        }
+    pub fn spine(&self) -> &Spine {
+        &self.spine
     }
 
-    /// Value and gradient of form i at p.
+    /// Whether the forms were all enumerated at construction (a spine with selectors):
+    /// then the crease search bounds every form in each cell instead of pruning the spine.
+    pub fn enumerated(&self) -> bool {
+        self.enumerated
+    }
+
+    /// The id of a form, registered if new.
+    fn id(&mut self, form: &Form) -> usize {
+        let key = form.key();
+        if let Some(&i) = self.index.get(&key) {
+            return i;
+        }
+        let i = self.forms.len();
+        self.forms.push(form.clone());
+        self.index.insert(key, i);
+        self.parent.push(i);
+        i
+    }
+
+    /// Branch k's value and gradient at p, evaluated once per point.
+    fn branch_at(&mut self, k: usize, p: DVec3) -> ValueGrad {
+        let bits = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+        if self.at != Some(bits) {
+            self.at = Some(bits);
+            self.cache.iter_mut().for_each(|c| *c = None);
+        }
+        if let Some(v) = self.cache[k] {
+            return v;
+        }
+        let v = self.branches[k].value_gradient(p);
+        self.cache[k] = Some(v);
+        v
+    }
+
+    /// Value and gradient of form i at p (only its own branches are evaluated).
     pub fn form(&mut self, i: usize, p: DVec3) -> ValueGrad {
-        self.eval_branches(p);
-        self.forms[i].combine(&self.scratch)
+        let terms = std::mem::take(&mut self.forms[i].terms);
+        let out = Form {
+            terms,
+            constant: self.forms[i].constant,
+        };
+        let v = out.combine(|k| self.branch_at(k, p));
+        self.forms[i].terms = out.terms;
+        v
+    }
+
+    fn all_branches(&mut self, p: DVec3) -> Vec<ValueGrad> {
+        (0..self.branches.len())
+            .map(|k| self.branch_at(k, p))
+            .collect()
     }
 
     /// Form i and the function whose zero on it is the seam with form j, at p: form j where
@@ -502,11 +804,13 @@ impl Creased {
     /// selector of the lifted choice between them (see the module documentation), which
     /// stays transversal where the two forms coincide.
     pub fn seam(&mut self, i: usize, j: usize, p: DVec3) -> (ValueGrad, ValueGrad) {
-        self.eval_branches(p);
-        let li = self.forms[i].combine(&self.scratch);
+        let li = self.form(i, p);
         let other = match self.seams.get(&(i, j)) {
-            Some(&Between::Select(s)) => self.spine.term_values(&self.scratch)[s],
-            _ => self.forms[j].combine(&self.scratch),
+            Some(&Between::Select(s)) => {
+                let b = self.all_branches(p);
+                self.spine.term_values(&b)[s]
+            }
+            _ => self.form(j, p),
         };
         (li, other)
     }
@@ -517,43 +821,106 @@ impl Creased {
         self.seams.get(&(i, j)) != Some(&Between::Apart)
     }
 
+    /// Whether forms i and j are told apart by a lifted choice (their seam is a selector's
+    /// zero, not where they are equal).
+    pub fn by_selector(&self, i: usize, j: usize) -> bool {
+        matches!(self.seams.get(&(i, j)), Some(Between::Select(_)))
+    }
+
     /// Value and gradient of f at p, through the spine.
     pub fn whole(&mut self, p: DVec3) -> ValueGrad {
-        self.eval_branches(p);
-        self.spine.value_gradient(&self.scratch)
+        let b = self.all_branches(p);
+        self.spine.value_gradient(&b)
     }
 
     /// The forms chosen at p, with every choice within `eps` (function units) of the one
     /// taken counted as a tie: sorted form indices.
     pub fn active(&mut self, p: DVec3, eps: f64) -> Vec<usize> {
-        self.eval_branches(p);
-        let values: Vec<f64> = self.scratch.iter().map(|b| b.value).collect();
-        let Ok(cands) = self.spine.candidates(Some((&values, eps)), usize::MAX) else {
+        let values: Vec<f64> = self.all_branches(p).iter().map(|b| b.value).collect();
+        let Ok(cands) = self.spine.candidates(Some((&values, eps)), MAX_CELL_FORMS) else {
             return Vec::new();
         };
-        let mut out: Vec<usize> = cands
-            .iter()
-            .filter_map(|c| self.index.get(&c.form.key()).copied())
-            .collect();
+        let mut out: Vec<usize> = if self.enumerated {
+            cands
+                .iter()
+                .filter_map(|c| self.index.get(&c.form.key()).copied())
+                .collect()
+        } else {
+            cands.iter().map(|c| self.id(&c.form)).collect()
+        };
         out.sort_unstable();
         out.dedup();
         out
     }
 
+    /// An interval holding branch k over the box lo..hi (the whole line when the branch
+    /// cannot bound itself).
+    pub fn branch_bound(&mut self, k: usize, lo: DVec3, hi: DVec3) -> Interval {
+        self.branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE)
+    }
+
     /// An interval holding form i over the box lo..hi, from the branches' bounds (None when
     /// a branch cannot bound itself).
     pub fn form_bound(&mut self, i: usize, lo: DVec3, hi: DVec3) -> Option<Interval> {
-        let coefficients = self.forms[i].coefficients.clone();
-        let n = coefficients.len();
-        let mut acc = Interval::point(coefficients[n - 1]);
-        for (k, c) in coefficients[..n - 1].iter().enumerate() {
-            if *c == 0.0 {
-                continue;
+        let form = self.forms[i].clone();
+        let mut known = true;
+        let b = form.bound(|k| match self.branches[k].bound(lo, hi) {
+            Some(b) => b,
+            None => {
+                known = false;
+                Interval::ENTIRE
             }
-            let b = self.branches[k].bound(lo, hi)?;
-            acc = interval(Op::Add, acc, interval(Op::Mul, b, Interval::point(*c)));
+        });
+        known.then_some(b)
+    }
+
+    /// The forms of `spine` (a pruned spine of this surface), registered: every pattern of
+    /// its choices. Err when they are more than [`MAX_CELL_FORMS`].
+    pub fn forms_of(&mut self, spine: &Spine) -> Result<Vec<usize>, SpineError> {
+        let cands = spine.candidates(None, MAX_CELL_FORMS)?;
+        let mut out: Vec<usize> = cands.iter().map(|c| self.id(&c.form)).collect();
+        out.sort_unstable();
+        out.dedup();
+        Ok(out)
+    }
+
+    /// The forms that can be chosen somewhere in the box lo..hi (every form of a spine with
+    /// selectors; else those of the spine pruned over the box), registered.
+    pub fn forms_near(&mut self, lo: DVec3, hi: DVec3) -> Result<Vec<usize>, SpineError> {
+        if self.enumerated {
+            return Ok((0..self.forms.len()).collect());
         }
-        Some(acc)
+        let spine = std::mem::replace(&mut self.spine, Spine::empty());
+        let (pruned, _) =
+            spine.pruned(&mut |k| self.branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
+        self.spine = spine;
+        self.forms_of(&pruned)
+    }
+
+    /// Form i's face: the smallest form of its class (forms found to be one oriented sheet).
+    pub fn class(&mut self, i: usize) -> usize {
+        let mut r = i;
+        while self.parent[r] != r {
+            r = self.parent[r];
+        }
+        // Path halving keeps later lookups short.
+        let mut k = i;
+        while self.parent[k] != r {
+            let next = self.parent[k];
+            self.parent[k] = r;
+            k = next;
+        }
+        r
+    }
+
+    /// Records that forms i and j are one face.
+    pub fn unite(&mut self, i: usize, j: usize) {
+        let (a, b) = (self.class(i), self.class(j));
+        if a != b {
+            // The smaller id stays the root, so a class's face is its first form.
+            let (lo, hi) = (a.min(b), a.max(b));
+            self.parent[hi] = lo;
+        }
     }
 
     /// Form i as a surface of its own.
@@ -591,6 +958,16 @@ impl Surface for Whole<'_> {
 mod tests {
     use super::*;
 
+    /// A form's coefficients over n branches, then its constant.
+    fn dense(f: &Form, n: usize) -> Vec<f64> {
+        let mut c = vec![0.0; n + 1];
+        for &(k, x) in &f.terms {
+            c[k] = x;
+        }
+        c[n] = f.constant;
+        c
+    }
+
     /// max(|b0|, b1) − 1: forms b0 − 1, −b0 − 1, b1 − 1.
     fn spine() -> Spine {
         Spine::new(
@@ -610,7 +987,7 @@ mod tests {
     #[test]
     fn forms_are_the_patterns_of_choices() {
         let forms = spine().forms(64).unwrap();
-        let c: Vec<Vec<f64>> = forms.into_iter().map(|f| f.coefficients).collect();
+        let c: Vec<Vec<f64>> = forms.into_iter().map(|f| dense(&f, 2)).collect();
         assert_eq!(
             c,
             vec![
@@ -628,7 +1005,7 @@ mod tests {
             s.candidates(Some((&[b0, b1], eps)), 64)
                 .unwrap()
                 .into_iter()
-                .map(|c| c.form.coefficients)
+                .map(|c| dense(&c.form, 2))
                 .collect::<Vec<_>>()
         };
         assert_eq!(at(2.0, 0.5, 1e-9), vec![vec![1.0, 0.0, -1.0]]);

@@ -323,20 +323,51 @@ fn tangential_contact_is_refused_at_its_place() {
     assert!(started.elapsed().as_secs_f64() < 20.0);
 }
 
-/// Four pieces at a point (the apex of a pyramid of four planes, here a 5-ary `max`; not in
-/// general position) are not meshed: E0601 at the apex, saying how many pieces meet there.
+/// Four faces at a point (the apex of a pyramid of four planes, a 5-ary `max`): the apex is
+/// a mesh vertex where the four faces' creases meet, every triangle lies in one face, and
+/// the area is the pyramid's (four triangles √2 each and the base 4).
 #[test]
-fn four_pieces_at_a_point_are_refused_at_the_point() {
-    let d = match mesh_source(
+fn a_corner_of_four_faces_is_one_vertex() {
+    let step = 0.1;
+    let m = mesh_one(&format!(
         "surface s = max(x + z, -x + z, y + z, -y + z, -z - 1);\n\
-         mesh s = s { step: 0.1; box: (-3, -3, -2) .. (3, 3, 1); }\n",
-    ) {
-        Ok(_) => panic!("a four-piece corner meshed"),
-        Err(d) => d,
+         mesh s = s {{ step: {step}; box: (-3, -3, -2) .. (3, 3, 1); }}\n"
+    ));
+    assert_closed(&m, 2, 30.0);
+    let v = &m.mesh.vertices;
+    assert!(v.contains(&DVec3::ZERO), "the apex is not a vertex");
+    for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+        let c = DVec3::new(sx, sy, -1.0);
+        assert!(
+            v.iter().any(|p| p.distance(c) <= 1e-12),
+            "corner {c} is not a vertex"
+        );
+    }
+    let planes = [
+        DVec3::new(1.0, 0.0, 1.0),
+        DVec3::new(-1.0, 0.0, 1.0),
+        DVec3::new(0.0, 1.0, 1.0),
+        DVec3::new(0.0, -1.0, 1.0),
+    ];
+    let on = |p: DVec3, k: usize| match k {
+        4 => (p.z + 1.0).abs() <= 1e-9,
+        _ => (planes[k].dot(p)).abs() <= 1e-9,
     };
-    let text = format!("{:?}", d[0]);
-    assert_eq!(d[0].code, "E0601", "{text}");
-    assert!(text.contains("4 smooth pieces meet at [0, 0, 0]"), "{text}");
+    let mut area = 0.0;
+    for t in &m.mesh.triangles {
+        let p = t.map(|k| v[k as usize]);
+        assert!(
+            (0..5).any(|k| p.iter().all(|q| on(*q, k))),
+            "triangle {p:?} is in no face"
+        );
+        area += 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+    }
+    let exact = 4.0 * 2f64.sqrt() + 4.0;
+    assert!(
+        (area - exact).abs() <= 1e-9 * exact,
+        "area {area}, exact {exact}"
+    );
+    assert_eq!(m.creases.map(|c| (c.creases, c.corners)), Some((8, 5)));
 }
 
 /// Sharp edges hidden under a function the spine does not see through (`exp` of a cube) are

@@ -13,6 +13,7 @@ mod components;
 mod creases;
 mod crossings;
 mod dist_gallery;
+mod flush;
 mod gallery;
 mod march_box;
 mod march_closed;

@@ -702,7 +702,7 @@ impl Marcher<'_> {
 /// on the surface, the curvature from it is meaningless and the local step falls to its
 /// floor, so the march would run into the triangle limit after minutes instead of saying
 /// why at once. Distances below 64 ulps of the point are skipped (they round to it).
-fn changes_sign(surface: &mut dyn Surface, sp: &SurfacePoint, step: f64) -> bool {
+pub(crate) fn changes_sign(surface: &mut dyn Surface, sp: &SurfacePoint, step: f64) -> bool {
     let ulps = 64.0 * f64::EPSILON * sp.point.abs().max_element();
     [1e-6, 1e-4, 1e-2]
         .iter()

@@ -1,0 +1,227 @@
+//! Joining the pieces of `crease_net`: the pieces' meshes merged at their shared crease
+//! vertices, each face's crease polygons chained at the corners into loops, and the checks
+//! that the joined mesh is one surface and that every triangle of a crease-free component
+//! lies on one face.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use super::CreaseError;
+use crate::mesh::Mesh;
+use crate::mesh::bits::BitsHash;
+use crate::survey::spine::Creased;
+
+/// The joined mesh is one surface: no edge in more than two triangles, none walked the same
+/// way twice (two pieces on one side of a crease), every triangle facing where the normals
+/// of its vertices point (a sliver closed across a thin piece does not), and no triangles
+/// crossing (each march checks its own; this checks them across pieces and components).
+pub(super) fn check_joined(mesh: &Mesh) -> Result<(), CreaseError> {
+    let centre = |t: usize| {
+        mesh.triangles[t]
+            .iter()
+            .map(|&k| mesh.vertices[k as usize])
+            .sum::<DVec3>()
+            / 3.0
+    };
+    let mut uses: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
+    for (n, t) in mesh.triangles.iter().enumerate() {
+        let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
+        let normals: DVec3 = t.iter().map(|&k| mesh.normals[k as usize]).sum();
+        let facing = (b - a).cross(c - a).dot(normals);
+        if facing.is_nan() || facing <= 0.0 {
+            return Err(CreaseError::Joined {
+                at: centre(n),
+                why: "a triangle faces against the surface's normal",
+            });
+        }
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let entry = uses.entry((a.min(b), a.max(b))).or_insert((0, 0));
+            if a < b {
+                entry.0 += 1;
+            } else {
+                entry.1 += 1;
+            }
+            if entry.0 > 1 || entry.1 > 1 {
+                let why = if entry.0 + entry.1 > 2 {
+                    "an edge is in more than two triangles"
+                } else {
+                    "two triangles on one side of an edge"
+                };
+                return Err(CreaseError::Joined { at: centre(n), why });
+            }
+        }
+    }
+    if let Some([a, _]) = crate::mesh::check::intersecting_pairs(mesh).first() {
+        return Err(CreaseError::Joined {
+            at: centre(*a as usize),
+            why: "triangles of two pieces cross",
+        });
+    }
+    Ok(())
+}
+
+/// The meshes as one, vertices with bit-identical positions merged (the crease vertices the
+/// pieces share), in order of first appearance.
+/// A vertex shared by pieces gets the normalised sum of their normals, which agrees with
+/// every triangle around it wherever the crease is not a fold (normals less than 180° apart).
+pub(crate) fn merge(parts: &[Mesh]) -> Mesh {
+    merge_at(parts, None).0
+}
+
+/// `merge`, where given `only` the positions that may be shared: then only those go into a
+/// table (which stays in cache: the slabs of `pipeline::pieces` share only their cut
+/// polygons), and each vertex is looked up there rather than hashed into a table of all.
+/// Also returns which vertices of the result are among `only` (none without it).
+pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<bool>) {
+    let vertices: usize = parts.iter().map(|p| p.vertices.len()).sum();
+    // Each position's id in the merged mesh, once it has one.
+    let mut index: HashMap<[u64; 3], Option<u32>, BitsHash> = match only {
+        Some(shared) => shared.iter().map(|&p| (bits(p), None)).collect(),
+        None => HashMap::with_capacity_and_hasher(vertices, BitsHash),
+    };
+    let mut out = Mesh {
+        vertices: Vec::with_capacity(vertices),
+        normals: Vec::with_capacity(vertices),
+        triangles: Vec::with_capacity(parts.iter().map(|p| p.triangles.len()).sum()),
+    };
+    let mut among = Vec::with_capacity(if only.is_some() { vertices } else { 0 });
+    let mut met_again = Vec::new();
+    for part in parts {
+        let ids: Vec<u32> = part
+            .vertices
+            .iter()
+            .zip(&part.normals)
+            .map(|(v, n)| {
+                let fresh = out.vertices.len() as u32;
+                let slot = match only {
+                    Some(_) => index.get_mut(&bits(*v)),
+                    None => Some(index.entry(bits(*v)).or_insert(None)),
+                };
+                if let Some(&mut Some(id)) = slot {
+                    out.normals[id as usize] += *n;
+                    met_again.push(id);
+                    return id;
+                }
+                if only.is_some() {
+                    among.push(slot.is_some());
+                }
+                if let Some(slot) = slot {
+                    *slot = Some(fresh);
+                }
+                out.vertices.push(*v);
+                // Summed from zero (a −0 component becomes +0).
+                out.normals.push(DVec3::ZERO + *n);
+                fresh
+            })
+            .collect();
+        out.triangles
+            .extend(part.triangles.iter().map(|t| t.map(|k| ids[k as usize])));
+    }
+    met_again.sort_unstable();
+    met_again.dedup();
+    for id in met_again {
+        let n = &mut out.normals[id as usize];
+        *n = n.normalize_or(*n);
+    }
+    (out, among)
+}
+
+fn bits(p: DVec3) -> [u64; 3] {
+    [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
+}
+
+/// Joins one face's directed polygons into closed loops at their corners (the last vertex of
+/// each loop not repeated). `corners` are the corners' places. A face lies between two of
+/// the creases that leave each of its corners, so each corner has one polygon of the face
+/// arriving and one leaving.
+pub(super) fn chain(polys: Vec<Side>, corners: &[DVec3]) -> Result<Vec<Vec<DVec3>>, CreaseError> {
+    let mut loops = Vec::new();
+    let mut open: Vec<(Vec<DVec3>, usize, usize)> = Vec::new();
+    for (p, ends) in polys {
+        match ends {
+            None => loops.push(p),
+            Some((a, b)) => open.push((p, a, b)),
+        }
+    }
+    let mut used = vec![false; open.len()];
+    for first in 0..open.len() {
+        if used[first] {
+            continue;
+        }
+        used[first] = true;
+        let start = open[first].1;
+        let mut ring: Vec<DVec3> = open[first].0.clone();
+        let mut end = open[first].2;
+        while end != start {
+            let next: Vec<usize> = (0..open.len())
+                .filter(|&k| !used[k] && open[k].1 == end)
+                .collect();
+            match next[..] {
+                [k] => {
+                    used[k] = true;
+                    ring.extend_from_slice(&open[k].0[1..]);
+                    end = open[k].2;
+                }
+                [] => return Err(CreaseError::Chain { at: corners[end] }),
+                _ => {
+                    return Err(CreaseError::SingularCorner {
+                        at: corners[end],
+                        pieces: next.len() + 2,
+                    });
+                }
+            }
+        }
+        // The start corner closes the loop: not repeated.
+        ring.pop();
+        if ring.len() < 3 {
+            return Err(CreaseError::Chain { at: ring[0] });
+        }
+        loops.push(ring);
+    }
+    Ok(loops)
+}
+
+/// A crease polygon walked with its piece on the left, and its end corners (None: closed).
+pub(super) type Side = (Vec<DVec3>, Option<(usize, usize)>);
+
+/// Every triangle of `mesh` from triangle `first` on lies on one face: its vertices have a
+/// chosen face in common (ties within `tie · |∇f|`).
+pub(super) fn check_smooth(
+    c: &mut Creased,
+    mesh: &Mesh,
+    first: usize,
+    tie: f64,
+) -> Result<(), CreaseError> {
+    let mut active: HashMap<u32, Vec<usize>> = HashMap::new();
+    for t in &mesh.triangles[first..] {
+        let mut common: Option<Vec<usize>> = None;
+        for &k in t {
+            let v = mesh.vertices[k as usize];
+            let set = active
+                .entry(k)
+                .or_insert_with(|| {
+                    let g = c.whole(v).gradient.length();
+                    let mut faces: Vec<usize> = c
+                        .active(v, tie * g.max(f64::MIN_POSITIVE))
+                        .into_iter()
+                        .map(|k| c.class(k))
+                        .collect();
+                    faces.sort_unstable();
+                    faces.dedup();
+                    faces
+                })
+                .clone();
+            common = Some(match common {
+                None => set,
+                Some(cm) => cm.into_iter().filter(|f| set.contains(f)).collect(),
+            });
+        }
+        if common.is_some_and(|cm| cm.is_empty()) {
+            let at = t.iter().map(|&k| mesh.vertices[k as usize]).sum::<DVec3>() / 3.0;
+            return Err(CreaseError::MissedCrease { at });
+        }
+    }
+    Ok(())
+}
