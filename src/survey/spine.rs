@@ -16,6 +16,7 @@
 //! too, where it is a seam through smooth surface, and the true crease elsewhere.
 
 use std::collections::HashMap;
+use std::sync::Arc;
 
 use glam::DVec3;
 
@@ -686,6 +687,11 @@ pub struct Creased {
     /// The branches' values and gradients at `at` (the last point asked), as far as asked.
     at: Option<[u64; 3]>,
     cache: Vec<Option<ValueGrad>>,
+    /// The side of the cells over which the spine is pruned for point queries (`localize`),
+    /// and those pruned spines: f and its choices at a point need only the branches that
+    /// can be chosen near it.
+    local_size: Option<f64>,
+    local: HashMap<[i64; 3], Arc<Spine>>,
 }
 
 /// The most forms (smooth pieces) of a spine that chooses by selectors (a lifted smooth
@@ -735,7 +741,55 @@ impl Creased {
             parent,
             at: None,
             cache: vec![None; n],
+            local_size: None,
+            local: HashMap::new(),
         })
+    }
+
+    /// Prunes the spine over cells of side `size` for the point queries that follow (`whole`,
+    /// `active`): exact, since a choice is pruned only where the bounds decide it throughout
+    /// the cell. Not for a spine with selectors, whose terms the seams refer to.
+    pub fn localize(&mut self, size: f64) {
+        if !self.enumerated && size.is_finite() && size > 0.0 {
+            self.local_size = Some(size);
+            self.local.clear();
+        }
+    }
+
+    /// The spine to evaluate at p: pruned over p's cell when `localize`d.
+    fn spine_at(&mut self, p: DVec3) -> Arc<Spine> {
+        let Some(size) = self.local_size else {
+            return Arc::new(self.spine.clone());
+        };
+        let key = (p / size).floor().to_array().map(|c| c as i64);
+        if let Some(s) = self.local.get(&key) {
+            return s.clone();
+        }
+        // The cell and a margin, so that a point on its boundary is well inside.
+        let lo = DVec3::from(key.map(|c| c as f64)) * size - DVec3::splat(0.01 * size);
+        let hi = lo + DVec3::splat(1.02 * size);
+        let branches = &mut self.branches;
+        let (pruned, _) = self.spine.pruned(&mut |k| {
+            branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE)
+        });
+        let pruned = Arc::new(pruned);
+        self.local.insert(key, pruned.clone());
+        pruned
+    }
+
+    /// The values and gradients of the branches `spine` uses at p (others NaN).
+    fn branches_of(&mut self, spine: &Spine, p: DVec3) -> Vec<ValueGrad> {
+        let mut out = vec![
+            ValueGrad {
+                value: f64::NAN,
+                gradient: DVec3::NAN
+            };
+            self.branches.len()
+        ];
+        for k in spine.branches_used() {
+            out[k] = self.branch_at(k, p);
+        }
+        out
     }
 
     /// The forms registered so far (all of them for a spine with selectors).
@@ -829,15 +883,21 @@ impl Creased {
 
     /// Value and gradient of f at p, through the spine.
     pub fn whole(&mut self, p: DVec3) -> ValueGrad {
-        let b = self.all_branches(p);
-        self.spine.value_gradient(&b)
+        let spine = self.spine_at(p);
+        let b = self.branches_of(&spine, p);
+        spine.value_gradient(&b)
     }
 
     /// The forms chosen at p, with every choice within `eps` (function units) of the one
     /// taken counted as a tie: sorted form indices.
     pub fn active(&mut self, p: DVec3, eps: f64) -> Vec<usize> {
-        let values: Vec<f64> = self.all_branches(p).iter().map(|b| b.value).collect();
-        let Ok(cands) = self.spine.candidates(Some((&values, eps)), MAX_CELL_FORMS) else {
+        let spine = self.spine_at(p);
+        let values: Vec<f64> = self
+            .branches_of(&spine, p)
+            .iter()
+            .map(|b| b.value)
+            .collect();
+        let Ok(cands) = spine.candidates(Some((&values, eps)), MAX_CELL_FORMS) else {
             return Vec::new();
         };
         let mut out: Vec<usize> = if self.enumerated {

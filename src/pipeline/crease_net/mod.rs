@@ -207,6 +207,7 @@ pub fn mesh_creased(
     if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
         return Err(CreaseError::InvalidBox { lo, hi });
     }
+    creased.localize(step);
     let mut t = Tracer::new(creased, step, bbox, *settings);
     let trace = crate::trace::enabled();
     let cells = t.cells(whole)?;
@@ -226,7 +227,13 @@ pub fn mesh_creased(
                 let Some(seed) = t.seed(i, j, *cell_lo, *cell_hi)? else {
                     continue;
                 };
+                // A crease of these faces traced already, or a line of them found to be none,
+                // passes here.
+                if t.covered(i, j, seed) {
+                    continue;
+                }
                 let Some((fa, fb)) = t.seed_crease(i, j, seed)? else {
+                    t.remember(seed, i, j);
                     continue;
                 };
                 if !t.covered(fa, fb, seed) {

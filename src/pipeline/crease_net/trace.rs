@@ -319,7 +319,8 @@ impl<'a> Tracer<'a> {
             .map(|c| c as i64)
     }
 
-    /// Whether a crease of the faces of i and j was traced within `covered · step` of p.
+    /// Whether a crease of the faces of i and j was traced, or a line of them found to be no
+    /// crease, within `covered · step` of p.
     pub fn covered(&mut self, i: usize, j: usize, p: DVec3) -> bool {
         let k = self.key(p);
         let r = self.s.covered * self.step;
@@ -358,10 +359,16 @@ impl<'a> Tracer<'a> {
         }
         let (i, j) = tr.forms;
         for &p in &tr.points {
-            let k = self.key(p);
-            self.near.entry(k).or_default().push((p, i, j));
+            self.remember(p, i, j);
         }
         self.traced.push(tr);
+    }
+
+    /// Remembers that a crease of the faces of i and j, or a line of them that is none (one
+    /// face going on, or no surface: the same along it up to the next junction), passes p.
+    pub fn remember(&mut self, p: DVec3, i: usize, j: usize) {
+        let k = self.key(p);
+        self.near.entry(k).or_default().push((p, i, j));
     }
 
     fn tangent(&mut self, i: usize, j: usize, p: DVec3) -> Result<DVec3, CreaseError> {
