@@ -50,8 +50,8 @@ fn layers(gcode: &str) -> Vec<f64> {
         .collect()
 }
 
-/// Slices `meshed` written as `format` and checks the G-code: layers from the bed up to the
-/// part's height (within a layer).
+/// Slices `meshed` written as `format` in layers of 0.1 mm and checks the G-code: layers
+/// from the bed up to the part's height (within a layer).
 fn slices(slicer: &str, dir: &Path, name: &str, meshed: &[Meshed], format: Format) {
     let path = dir.join(format!("{name}.{}", format.extension()));
     write_mesh_file(&path, format, &parts::named(meshed)).expect("written");
@@ -59,6 +59,7 @@ fn slices(slicer: &str, dir: &Path, name: &str, meshed: &[Meshed], format: Forma
     let out = Command::new(slicer)
         .arg("--export-gcode")
         .arg(&path)
+        .args(["--layer-height", "0.1", "--first-layer-height", "0.1"])
         .arg("--output")
         .arg(&gcode)
         .output()
@@ -84,10 +85,10 @@ fn slices(slicer: &str, dir: &Path, name: &str, meshed: &[Meshed], format: Forma
         });
     let top = z.iter().copied().fold(0.0, f64::max);
     let height = hi - lo;
-    // Layers of 0.2 mm at most (0.3 under the first): the top layer lies within one of the
-    // height, which in millimetres is the model's own.
+    // Layers of 0.1 mm: the top layer lies within one of the part's height, which in
+    // millimetres is the model's own (the 3MF says millimeter; the STL's numbers are read so).
     assert!(
-        (top - height).abs() <= 0.3,
+        (top - height).abs() <= 0.1 + 1e-9,
         "{name}.{format}: top layer at {top} mm, the part is {height} high"
     );
 }
