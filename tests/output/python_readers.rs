@@ -54,45 +54,39 @@ fn expected_rounded(mesh: &Mesh, round: fn(f64) -> f64) -> Vec<Corners> {
 /// Whether python3 can import lib3mf; if not, says so loudly, and fails under
 /// `SURFC_REQUIRE_PY_READERS=1`.
 fn lib3mf_available() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import lib3mf"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        let required = std::env::var("SURFC_REQUIRE_PY_READERS").is_ok_and(|v| v == "1");
-        assert!(
-            !required,
-            "SURFC_REQUIRE_PY_READERS=1 but python3 with lib3mf is not available"
-        );
-        let _ = writeln!(
-            std::io::stderr(),
-            "\n*** SKIPPED: python3 with lib3mf is not available; the 3MF is NOT checked by \
-             lib3mf. `pip install lib3mf` (or run .ci/run) to check it. ***\n"
-        );
-    }
-    ok
+    modules_available(&["lib3mf"], "the 3MF is NOT checked by lib3mf")
 }
 
 /// Whether the Python readers can run; if not, says so loudly, and fails under
 /// `SURFC_REQUIRE_PY_READERS=1`.
 fn python_readers_available() -> bool {
+    modules_available(
+        &["meshio", "trimesh", "lxml", "networkx"],
+        "the MSH, VTU, 3MF and OBJ files are NOT checked by independent readers",
+    )
+}
+
+/// Whether python3 can import `modules`; if not, says so loudly (`unchecked`: what goes
+/// unchecked then), and fails under `SURFC_REQUIRE_PY_READERS=1`.
+fn modules_available(modules: &[&str], unchecked: &str) -> bool {
     let ok = Command::new("python3")
-        .args(["-c", "import meshio, trimesh, lxml, networkx"])
+        .args(["-c", &format!("import {}", modules.join(", "))])
         .output()
         .is_ok_and(|o| o.status.success());
     if !ok {
+        let names = modules.join(", ");
         let required = std::env::var("SURFC_REQUIRE_PY_READERS").is_ok_and(|v| v == "1");
         assert!(
             !required,
-            "SURFC_REQUIRE_PY_READERS=1 but python3 with meshio, trimesh, lxml and networkx is not available"
+            "SURFC_REQUIRE_PY_READERS=1 but python3 with {names} is not available"
         );
         // Straight to the stderr handle: libtest captures `eprintln!` of passing tests, and
         // this must be seen.
         let _ = writeln!(
             std::io::stderr(),
-            "\n*** SKIPPED: python3 with meshio, trimesh, lxml and networkx is not available; the \
-             MSH, VTU, 3MF and OBJ files are NOT checked by independent readers. \
-             `pip install meshio trimesh lxml networkx` (or run .ci/run) to check them. ***\n"
+            "\n*** SKIPPED: python3 with {names} is not available; {unchecked}. `pip install {}` \
+             (or run .ci/run) to check them. ***\n",
+            modules.join(" ")
         );
     }
     ok

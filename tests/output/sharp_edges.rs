@@ -75,7 +75,9 @@ fn read_obj(bytes: &[u8]) -> Vec<Corners> {
     out
 }
 
-fn read_ply(bytes: &[u8]) -> Vec<Corners> {
+/// A binary PLY of surfc's (`double x y z nx ny nz`, faces as `list uchar int`) read by
+/// ply-rs: the vertices with their normals, and the faces.
+pub fn ply_vertices_and_faces(bytes: &[u8]) -> (Vec<(DVec3, DVec3)>, Vec<Vec<i32>>) {
     use ply_rs_bw::parser::Parser;
     use ply_rs_bw::ply::{DefaultElement, Property};
 
@@ -86,7 +88,7 @@ fn read_ply(bytes: &[u8]) -> Vec<Corners> {
         Some(Property::Double(x)) => *x,
         other => panic!("{key} is {other:?}"),
     };
-    let vertices: Vec<(DVec3, DVec3)> = ply.payload["vertex"]
+    let vertices = ply.payload["vertex"]
         .iter()
         .map(|e| {
             let p = DVec3::new(double(e, "x"), double(e, "y"), double(e, "z"));
@@ -94,12 +96,21 @@ fn read_ply(bytes: &[u8]) -> Vec<Corners> {
             (p, n)
         })
         .collect();
-    ply.payload["face"]
+    let faces = ply.payload["face"]
         .iter()
         .map(|e| match e.get("vertex_indices") {
-            Some(Property::ListInt(list)) => [0, 1, 2].map(|k| vertices[list[k] as usize]),
+            Some(Property::ListInt(list)) => list.clone(),
             other => panic!("vertex_indices is {other:?}"),
         })
+        .collect();
+    (vertices, faces)
+}
+
+fn read_ply(bytes: &[u8]) -> Vec<Corners> {
+    let (vertices, faces) = ply_vertices_and_faces(bytes);
+    faces
+        .iter()
+        .map(|f| [0, 1, 2].map(|k| vertices[f[k] as usize]))
         .collect()
 }
 

@@ -328,9 +328,6 @@ fn stl_reads_back_with_stl_io_to_f32_precision() {
 
 #[test]
 fn ply_reads_back_exactly_with_ply_rs() {
-    use ply_rs_bw::parser::Parser;
-    use ply_rs_bw::ply::{DefaultElement, Property};
-
     let cases = Cases::new();
     let tricky = tricky_numbers();
     let mut meshes = cases.named();
@@ -339,28 +336,7 @@ fn ply_reads_back_exactly_with_ply_rs() {
         mesh: &tricky,
     });
     let data = bytes(write_ply, &meshes);
-    let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut Cursor::new(&data))
-        .expect("ply-rs reads the PLY");
-    let double = |e: &DefaultElement, key: &str| match e.get(key) {
-        Some(Property::Double(x)) => *x,
-        other => panic!("{key} is {other:?}"),
-    };
-    let vertices: Vec<(DVec3, DVec3)> = ply.payload["vertex"]
-        .iter()
-        .map(|e| {
-            let p = DVec3::new(double(e, "x"), double(e, "y"), double(e, "z"));
-            let n = DVec3::new(double(e, "nx"), double(e, "ny"), double(e, "nz"));
-            (p, n)
-        })
-        .collect();
-    let faces: Vec<Vec<i32>> = ply.payload["face"]
-        .iter()
-        .map(|e| match e.get("vertex_indices") {
-            Some(Property::ListInt(list)) => list.clone(),
-            other => panic!("vertex_indices is {other:?}"),
-        })
-        .collect();
+    let (vertices, faces) = crate::sharp_edges::ply_vertices_and_faces(&data);
     let expected: Vec<[([u64; 3], [u64; 3]); 3]> = meshes
         .iter()
         .flat_map(|m| {
