@@ -21,7 +21,7 @@
 //! three forms at a corner, a crease leaving the box — is an error at its place, never a mesh.
 //! Deterministic: cells, pairs and creases follow fixed orders.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use glam::{DMat3, DVec3};
 
@@ -29,6 +29,7 @@ use super::components::{self, Marching, SearchError, SearchSettings};
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
 use crate::mesh::bits::BitsHash;
+use crate::mesh::progress::Counts;
 use crate::solve::SurfacePoint;
 use crate::solve::curve::{ArcLength, min_norm_step};
 use crate::solve::surfacepoint::tangent_frame;
@@ -158,8 +159,10 @@ struct Traced {
 
 /// Meshes `creased` (f itself is `whole`, with its interval bound) inside the box as the
 /// module documentation says. With `fork` (fresh oracles of f), the smooth components are
-/// marched on the rayon pool as `components::mesh_components_forked` says.
-// The oracles, the marching, the box and three settings structs: each a caller's choice.
+/// marched on the rayon pool as `components::mesh_components_forked` says. `progress`, where
+/// given, counts the triangles of the pieces and components as they are marched.
+// The oracles, the marching, the box, three settings structs and the counts: each a
+// caller's choice.
 #[allow(clippy::too_many_arguments)]
 pub fn mesh_creased(
     creased: &mut Creased,
@@ -170,6 +173,7 @@ pub fn mesh_creased(
     march_settings: &MarchSettings,
     search: &SearchSettings,
     settings: &CreaseSettings,
+    progress: Option<&Counts>,
 ) -> Result<CreasedMesh, CreaseError> {
     let step = marching.step;
     if !(step.is_finite() && step > 0.0) {
@@ -286,9 +290,14 @@ pub fn mesh_creased(
             tolerance: marching.tolerance,
             uniform: marching.uniform,
         };
-        let marched =
-            march::march_verified(&mut t.c.piece(form), None, &input, &piece_settings, None)
-                .map_err(|source| CreaseError::March { at, source })?;
+        let marched = march::march_verified(
+            &mut t.c.piece(form),
+            None,
+            &input,
+            &piece_settings,
+            progress.map(|p| &p.triangles),
+        )
+        .map_err(|source| CreaseError::March { at, source })?;
         t.check_piece(form, &marched.mesh)?;
         out.max_chord_error = out.max_chord_error.max(marched.max_chord_error);
         out.warnings.extend(marched.warnings);
@@ -309,6 +318,7 @@ pub fn mesh_creased(
         march_settings,
         search,
         &pieces,
+        progress,
     )?;
     check_smooth(
         t.c,
@@ -382,7 +392,9 @@ const PROBES: usize = 8;
 /// The meshes as one, vertices with bit-identical positions merged (the crease vertices the
 /// pieces share), in order of first appearance.
 /// A vertex shared by pieces gets the normalised sum of their normals, which agrees with
-/// every triangle around it wherever the crease is not a fold (normals less than 180° apart).
+/// every triangle around it wherever the crease is not a fold (normals less than 180° apart),
+/// and, where the pieces' normals there differ, each of them as a side (`Mesh::sides`, the
+/// parts' own sides carried along), so that writers can keep the edge sharp.
 pub(crate) fn merge(parts: &[Mesh]) -> Mesh {
     merge_at(parts, None).0
 }
@@ -390,7 +402,8 @@ pub(crate) fn merge(parts: &[Mesh]) -> Mesh {
 /// `merge`, where given `only` the positions that may be shared: then only those go into a
 /// table (which stays in cache: the slabs of `pipeline::pieces` share only their cut
 /// polygons), and each vertex is looked up there rather than hashed into a table of all.
-/// Also returns which vertices of the result are among `only` (none without it).
+/// Also returns which vertices of the result are among `only` (none without it). Slabs of
+/// one smooth surface (`only` given) have no sides: none are recorded.
 pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<bool>) {
     let vertices: usize = parts.iter().map(|p| p.vertices.len()).sum();
     // Each position's id in the merged mesh, once it has one.
@@ -402,21 +415,46 @@ pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<boo
         vertices: Vec::with_capacity(vertices),
         normals: Vec::with_capacity(vertices),
         triangles: Vec::with_capacity(parts.iter().map(|p| p.triangles.len()).sum()),
+        sides: Vec::new(),
     };
     let mut among = Vec::with_capacity(if only.is_some() { vertices } else { 0 });
     let mut met_again = Vec::new();
+    // Sides (slabs of one smooth surface, `only` given, have none): the normals met at each
+    // vertex met again, where a part's vertex with sides of its own brings those rather than
+    // its summed normal; `sided` marks the vertices whose first part brought sides.
+    let record_sides = only.is_none();
+    let mut side_normals: HashMap<u32, Vec<DVec3>> = HashMap::new();
+    let mut sided: HashSet<u32> = HashSet::new();
     for part in parts {
+        let part_sided: HashSet<u32> = part.sides.iter().map(|s| s.vertex).collect();
         let ids: Vec<u32> = part
             .vertices
             .iter()
             .zip(&part.normals)
-            .map(|(v, n)| {
+            .enumerate()
+            .map(|(k, (v, n))| {
                 let fresh = out.vertices.len() as u32;
+                let has_sides = !part_sided.is_empty() && part_sided.contains(&(k as u32));
                 let slot = match only {
                     Some(_) => index.get_mut(&bits(*v)),
                     None => Some(index.entry(bits(*v)).or_insert(None)),
                 };
                 if let Some(&mut Some(id)) = slot {
+                    if record_sides {
+                        // When the vertex is first met again, the first normal met there is
+                        // still the sum's only term.
+                        let first = out.normals[id as usize];
+                        let met = side_normals.entry(id).or_insert_with(|| {
+                            if sided.contains(&id) {
+                                Vec::new()
+                            } else {
+                                vec![first]
+                            }
+                        });
+                        if !has_sides {
+                            met.push(*n);
+                        }
+                    }
                     out.normals[id as usize] += *n;
                     met_again.push(id);
                     return id;
@@ -427,12 +465,22 @@ pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<boo
                 if let Some(slot) = slot {
                     *slot = Some(fresh);
                 }
+                if has_sides {
+                    sided.insert(fresh);
+                }
                 out.vertices.push(*v);
                 // Summed from zero (a −0 component becomes +0).
                 out.normals.push(DVec3::ZERO + *n);
                 fresh
             })
             .collect();
+        if record_sides {
+            for side in &part.sides {
+                if let Some(&id) = ids.get(side.vertex as usize) {
+                    side_normals.entry(id).or_default().push(side.normal);
+                }
+            }
+        }
         out.triangles
             .extend(part.triangles.iter().map(|t| t.map(|k| ids[k as usize])));
     }
@@ -442,7 +490,32 @@ pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<boo
         let n = &mut out.normals[id as usize];
         *n = n.normalize_or(*n);
     }
+    out.sides = sides(side_normals);
     (out, among)
+}
+
+/// The sides of the vertices where different normals met, sorted by vertex, each normal
+/// once (compared by value: −0 and +0 are one), in the order they were met.
+fn sides(met: HashMap<u32, Vec<DVec3>>) -> Vec<crate::mesh::Side> {
+    let mut sides = Vec::new();
+    let mut vertices: Vec<u32> = met.keys().copied().collect();
+    vertices.sort_unstable();
+    for vertex in vertices {
+        let mut distinct: Vec<DVec3> = Vec::new();
+        for &n in &met[&vertex] {
+            if !distinct.contains(&n) {
+                distinct.push(n);
+            }
+        }
+        if distinct.len() > 1 {
+            sides.extend(
+                distinct
+                    .into_iter()
+                    .map(|normal| crate::mesh::Side { vertex, normal }),
+            );
+        }
+    }
+    sides
 }
 
 fn bits(p: DVec3) -> [u64; 3] {
