@@ -1,5 +1,5 @@
-//! `surfc mesh FILE [-o OUT] [--only NAME]... [--format F] [--json] [--stats] [--quiet]
-//! [--threads N]`:
+//! `surfc mesh FILE [-o OUT] [--only NAME]... [--format F] [--unit U] [--json] [--stats]
+//! [--quiet] [--threads N]`:
 //! every selected mesh block is built (surface oracle, curve polygons), marched and reported;
 //! then all of them go into one file, written atomically, or to standard output (`-o -`).
 //! If any mesh fails, nothing is written.
@@ -16,9 +16,10 @@ use super::report::{CODE_INPUT, CODE_IO, CODE_USAGE, Failure};
 use super::{ColorMode, EXIT_INPUT, EXIT_USAGE, EngineChoice};
 use crate::eval::Engine;
 use crate::mesh::NamedMesh;
+use crate::mesh::progress::Bars;
 use crate::mesh::quality::MeshReport;
 use crate::mesh::summary::{MeshSummary, format_stats, format_summary};
-use crate::mesh::write::{Format, target, write_mesh_file};
+use crate::mesh::write::{Format, Unit, WriteOptions, target, write_mesh_file_with};
 use crate::pipeline::{CreaseCounts, Meshed, mesh_program, named};
 use crate::sema::program::MeshDef;
 
@@ -50,6 +51,38 @@ impl From<MeshFormat> for Format {
     }
 }
 
+/// The unit of a file's lengths (`--unit`; docs/formats.md, *Units*).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum UnitChoice {
+    /// Micrometres.
+    Um,
+    /// Millimetres.
+    #[default]
+    Mm,
+    /// Centimetres.
+    Cm,
+    /// Metres.
+    M,
+    /// Inches.
+    #[value(name = "in")]
+    Inch,
+    /// Feet.
+    Ft,
+}
+
+impl From<UnitChoice> for Unit {
+    fn from(u: UnitChoice) -> Unit {
+        match u {
+            UnitChoice::Um => Unit::Micron,
+            UnitChoice::Mm => Unit::Millimetre,
+            UnitChoice::Cm => Unit::Centimetre,
+            UnitChoice::M => Unit::Metre,
+            UnitChoice::Inch => Unit::Inch,
+            UnitChoice::Ft => Unit::Foot,
+        }
+    }
+}
+
 #[derive(clap::Args, Debug)]
 pub struct MeshArgs {
     /// The .surf file; `-` reads standard input.
@@ -64,6 +97,10 @@ pub struct MeshArgs {
     /// Output format (default: from OUT's extension, else obj).
     #[arg(long, value_enum)]
     pub format: Option<MeshFormat>,
+    /// The unit of the file's lengths, recorded by the formats that have one: 3MF's `unit`,
+    /// GLB's scale to metres. The other formats hold the numbers as they are.
+    #[arg(long, value_enum, default_value_t = UnitChoice::Mm)]
+    pub unit: UnitChoice,
     /// Print one JSON report object on stdout (on failure: `{"errors": [...]}`).
     #[arg(long)]
     pub json: bool,
@@ -190,11 +227,23 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
     }
 
     let meshes = named(&meshed);
+    let unit = Unit::from(args.unit);
     let written = match &output {
-        Output::File(path) => write_mesh_file(path, format, &meshes)
-            .map(|()| path.display().to_string())
-            .map_err(|e| Failure::io(e.to_string(), e.path())),
-        Output::Stdout => write_stdout(format, &meshes).map(|()| "standard output".to_owned()),
+        Output::File(path) => {
+            let line = Bars::new(args.quiet).writing(&path.display().to_string());
+            let options = WriteOptions {
+                unit,
+                written: Some(line.count()),
+            };
+            let result = write_mesh_file_with(path, format, &meshes, &options);
+            line.finish();
+            result
+                .map(|()| path.display().to_string())
+                .map_err(|e| Failure::io(e.to_string(), e.path()))
+        }
+        Output::Stdout => {
+            write_stdout(format, unit, &meshes).map(|()| "standard output".to_owned())
+        }
     }?;
 
     if args.json {
@@ -256,10 +305,17 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
 /// Writes the meshes to standard output (`-o -`). A reader that stops early is no error, as
 /// for every command that prints; a mesh no format can write is refused before the first
 /// byte.
-fn write_stdout(format: Format, meshes: &[NamedMesh]) -> Result<(), Failure> {
+fn write_stdout(format: Format, unit: Unit, meshes: &[NamedMesh]) -> Result<(), Failure> {
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
-    match format.write(&mut out, meshes).and_then(|()| out.flush()) {
+    let options = WriteOptions {
+        unit,
+        written: None,
+    };
+    match format
+        .write_with(&mut out, meshes, &options)
+        .and_then(|()| out.flush())
+    {
         Ok(()) => Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::InvalidData => Err(Failure::new(

@@ -1,6 +1,6 @@
 //! The command line (docs/cli.md), the only module that knows every stage. Each command
 //! lives in its own file; exit codes: 0 success, 1 wrong input or a mesh that could not be
-//! completed, 2 usage or I/O error.
+//! completed, 2 usage or I/O error, 128 + N when interrupted by signal N (130 for Ctrl-C).
 
 use std::process::ExitCode;
 
@@ -14,6 +14,7 @@ pub(crate) mod load;
 pub mod mesh;
 mod render;
 mod report;
+mod signals;
 
 /// Exit code: the input is wrong, or a mesh could not be completed.
 pub const EXIT_INPUT: u8 = 1;
@@ -91,9 +92,11 @@ pub(crate) fn print_stdout(text: &str) -> u8 {
     }
 }
 
-/// Parses the process arguments and runs the command.
+/// Parses the process arguments and runs the command; SIGINT and SIGTERM remove the
+/// temporary files of writes under way and exit 130 or 143 (`signals`).
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
+    signals::install();
     ExitCode::from(run(cli))
 }
 

@@ -1,8 +1,9 @@
 //! How a command fails: the exit code and what went wrong, as data. Every error is printed
 //! on stderr when it happens (diagnostics through codespan, other errors as one `error:`
 //! line); a command run with `--json` also prints them all on stdout as one object,
-//! `{"errors": [{code, severity, message, file, line, column}, …]}` (docs/cli.md), so that a
-//! script reading stdout always gets JSON.
+//! `{"errors": [{code, severity, message, file, line, column, help, notes, labels}, …]}`
+//! (docs/cli.md), so that a script reading stdout always gets JSON, and with it everything
+//! the diagnostic on stderr says.
 
 use std::path::Path;
 
@@ -10,7 +11,7 @@ use serde::Serialize;
 
 use super::{EXIT_INPUT, EXIT_USAGE};
 use crate::diag::{self, Diagnostic, Severity};
-use crate::span::SourceMap;
+use crate::span::{SourceMap, Span};
 
 /// The `code` of an error that is not a diagnostic about the input: a usage error (exit 2).
 pub const CODE_USAGE: &str = "usage";
@@ -20,7 +21,8 @@ pub const CODE_IO: &str = "io";
 pub const CODE_INPUT: &str = "input";
 
 /// One entry of `{"errors": […]}`. `file`, `line` and `column` are null where the error has
-/// no place in a file (line and column are 1-based, the column in characters).
+/// no place in a file (line and column are 1-based, the column in characters). `help`,
+/// `notes` and `labels` are a diagnostic's (null and empty for other errors).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ErrorJson {
     pub code: String,
@@ -29,21 +31,45 @@ pub struct ErrorJson {
     pub file: Option<String>,
     pub line: Option<usize>,
     pub column: Option<usize>,
+    /// A likely fix (the diagnostic's `help`).
+    pub help: Option<String>,
+    /// Further remarks, in order (the diagnostic's `note`s): for E0601, why the mesh could
+    /// not be completed and where.
+    pub notes: Vec<String>,
+    /// Every labelled place, the primary one first.
+    pub labels: Vec<LabelJson>,
+}
+
+/// A labelled place of a diagnostic in `--json`: what the label says, whether it is the
+/// place the diagnostic is about, and where it is (as `ErrorJson` places an error).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LabelJson {
+    pub message: String,
+    pub primary: bool,
+    pub file: Option<String>,
+    pub line: Option<usize>,
+    pub column: Option<usize>,
+}
+
+/// The file, line and column of a span (None where the span lies in no file of `map`).
+fn place(span: Span, map: &SourceMap) -> Option<(String, (usize, usize))> {
+    let f = map.files().get(map.locate(span.start))?;
+    let place = diag::line_column(&f.text, (span.start - f.base) as usize);
+    Some((f.name.clone(), place))
 }
 
 impl ErrorJson {
     /// A diagnostic about `source` (read from `file`), placed at its primary label.
     pub fn from_diagnostic(d: &Diagnostic, map: &SourceMap) -> ErrorJson {
-        let located = d.primary_span().and_then(|span| {
-            let f = map.files().get(map.locate(span.start))?;
-            let place = diag::line_column(&f.text, (span.start - f.base) as usize);
-            Some((f.name.clone(), place))
-        });
+        let located = d.primary_span().and_then(|span| place(span, map));
         let file = located
             .as_ref()
             .map(|(name, _)| name.clone())
             .or_else(|| map.files().first().map(|f| f.name.clone()));
-        let place = located.map(|(_, place)| place);
+        let at = located.map(|(_, place)| place);
+        // The primary label first, then the others in their order.
+        let mut labels: Vec<&diag::Label> = d.labels.iter().filter(|l| l.primary).collect();
+        labels.extend(d.labels.iter().filter(|l| !l.primary));
         ErrorJson {
             code: d.code.to_owned(),
             severity: match d.severity {
@@ -52,8 +78,23 @@ impl ErrorJson {
             },
             message: d.message.clone(),
             file,
-            line: place.map(|(line, _)| line),
-            column: place.map(|(_, column)| column),
+            line: at.map(|(line, _)| line),
+            column: at.map(|(_, column)| column),
+            help: d.help.clone(),
+            notes: d.notes.clone(),
+            labels: labels
+                .into_iter()
+                .map(|l| {
+                    let located = place(l.span, map);
+                    LabelJson {
+                        message: l.message.clone(),
+                        primary: l.primary,
+                        file: located.as_ref().map(|(name, _)| name.clone()),
+                        line: located.as_ref().map(|(_, (line, _))| *line),
+                        column: located.as_ref().map(|(_, (_, column))| *column),
+                    }
+                })
+                .collect(),
         }
     }
 }
@@ -78,6 +119,9 @@ impl Failure {
                 file: file.map(|p| p.display().to_string()),
                 line: None,
                 column: None,
+                help: None,
+                notes: Vec::new(),
+                labels: Vec::new(),
             }],
         }
     }

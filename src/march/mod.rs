@@ -40,6 +40,7 @@ pub use ring::{FrontId, NodeId, PointId};
 pub use settings::MarchSettings;
 
 use crate::mesh::Mesh;
+use crate::mesh::progress::Tally;
 use crate::solve::SurfacePointError;
 use crate::surface::{Fork, Surface};
 use crate::survey::sizing::{Cap, Sizing};
@@ -264,15 +265,34 @@ pub fn march(
 ///
 /// `fork`, where given, makes fresh oracles of `surface` for the quality stage's centroid
 /// round, whose blocks run on the rayon pool (`improve::Stage::centroid_round`); without it
-/// the blocks run one after another on `surface`. `progress`, where given, receives the
-/// number of triangles made so far as the march goes (for a progress bar on another thread;
-/// relaxed stores, one per triangle).
+/// the blocks run one after another on `surface`. `progress`, where given, is a count that
+/// this march adds its triangles to as it goes, for a progress bar on another thread (an
+/// atomic add per batch of triangles, `mesh::progress::Tally`; marches on several threads
+/// may share it): a march made again takes back what the one before added, the result's
+/// triangles stay added, and a failed march takes back all it added.
 pub fn march_verified(
     surface: &mut dyn Surface,
     fork: Option<&Fork<'_>>,
     input: &MarchInput,
     settings: &MarchSettings,
     progress: Option<&std::sync::atomic::AtomicU64>,
+) -> Result<Marched, MarchError> {
+    let tally = Tally::new(progress);
+    let result = verified(surface, fork, input, settings, &tally);
+    match &result {
+        Ok(m) => tally.set(m.mesh.triangles.len() as u64),
+        Err(_) => tally.retract(),
+    }
+    result
+}
+
+/// [`march_verified`], its share of the count in `tally`.
+fn verified(
+    surface: &mut dyn Surface,
+    fork: Option<&Fork<'_>>,
+    input: &MarchInput,
+    settings: &MarchSettings,
+    tally: &Tally<'_>,
 ) -> Result<Marched, MarchError> {
     let step = input.step;
     if !(step.is_finite() && step > 0.0) {
@@ -300,7 +320,7 @@ pub fn march_verified(
     let mut ungraded: Option<Sizing> = None;
     let mut regrade_failed: Option<MarchError> = None;
     loop {
-        let mut marched = match marcher::run(surface, input, settings, &sizing, progress) {
+        let mut marched = match marcher::run(surface, input, settings, &sizing, tally) {
             Ok(m) => m,
             Err(e) if ungraded.is_some() => {
                 sizing = ungraded.take().expect("checked");

@@ -358,6 +358,7 @@ mod tests {
                 normals: vec![DVec3::Z; n],
                 vertices,
                 triangles,
+                sides: Vec::new(),
             },
             border: vec![false; n],
             fixed: n,

@@ -672,6 +672,7 @@ mod tests {
             vertices: vs,
             normals: vec![DVec3::Z; 7],
             triangles: vec![[0, 1, 2], [3, 4, 5], [2, 1, 6]],
+            sides: Vec::new(),
         };
         assert_eq!(intersecting_pairs(&m), vec![[0, 1]]);
         // A triangle with a corner not finite has no cell: it is left out (its key sorted
@@ -752,6 +753,7 @@ mod tests {
                 normals: vec![DVec3::Z; vs.len()],
                 vertices: vs,
                 triangles: tris,
+                sides: Vec::new(),
             };
             assert!(
                 !all.is_empty(),

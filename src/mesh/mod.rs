@@ -6,6 +6,7 @@ pub mod bits;
 pub mod check;
 pub mod edges;
 pub mod net;
+pub mod progress;
 pub mod quality;
 pub mod topology;
 
@@ -20,6 +21,22 @@ pub struct Mesh {
     pub normals: Vec<DVec3>,
     /// Vertex indices, counter-clockwise seen from the side ∇f points to.
     pub triangles: Vec<[u32; 3]>,
+    /// Where the surface has a sharp edge: at each vertex on a crease, the unit normal of
+    /// every smooth piece that meets there (∇ of that piece's function), two or more entries
+    /// per such vertex, sorted by vertex; `normals` holds their normalised sum at that vertex
+    /// (all a format with one normal per vertex can hold). Writers that split vertices at
+    /// sharp edges (GLB, OBJ, PLY) give each triangle at such a vertex the side whose normal
+    /// is nearest the triangle's own. Empty for a smooth surface.
+    pub sides: Vec<Side>,
+}
+
+/// The normal of one smooth piece at a vertex where pieces meet on a crease.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Side {
+    /// The vertex, an index into `Mesh::vertices`.
+    pub vertex: u32,
+    /// The piece's unit normal there.
+    pub normal: DVec3,
 }
 
 /// A mesh with the name of its mesh block: what writers put into one file. Meshes written to

@@ -3,9 +3,9 @@
 //! own ∇f, which may point the other way from its neighbour's (the G2 set's closure: its ∇f
 //! points into the cylinder it closes). Where an edge is in exactly two triangles of two
 //! different meshes, the two must use it in opposite directions; a mesh whose shared edges
-//! mostly say otherwise is flipped (triangles reversed, normals negated), the first mesh of
-//! each net in file order keeping its own orientation. Edges in four triangles (surfaces
-//! crossing, Sect. 3.9) join nothing: each surface there stays consistent in itself.
+//! mostly say otherwise is flipped (triangles reversed, normals and sides negated), the first
+//! mesh of each net in file order keeping its own orientation. Edges in four triangles
+//! (surfaces crossing, Sect. 3.9) join nothing: each surface there stays consistent in itself.
 
 use std::collections::{BTreeMap, HashMap};
 
@@ -21,6 +21,9 @@ pub fn orient(meshes: &mut [&mut Mesh]) -> Vec<bool> {
             }
             for n in &mut mesh.normals {
                 *n = -*n;
+            }
+            for side in &mut mesh.sides {
+                side.normal = -side.normal;
             }
         }
     }
@@ -124,11 +127,13 @@ mod tests {
             vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y],
             normals: vec![DVec3::Z; 3],
             triangles: vec![[0, 1, 2]],
+            sides: Vec::new(),
         };
         let b = Mesh {
             vertices: vec![DVec3::X, DVec3::ZERO, DVec3::NEG_Y],
             normals: vec![if b_up { DVec3::Z } else { DVec3::NEG_Z }; 3],
             triangles: vec![if b_up { [0, 1, 2] } else { [1, 0, 2] }],
+            sides: Vec::new(),
         };
         (a, b)
     }
@@ -155,11 +160,13 @@ mod tests {
             vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::NEG_Y],
             normals: vec![DVec3::Z; 4],
             triangles: vec![[0, 1, 2], [1, 0, 3]],
+            sides: Vec::new(),
         };
         let mut b = Mesh {
             vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Z, DVec3::NEG_Z],
             normals: vec![DVec3::Y; 4],
             triangles: vec![[1, 0, 2], [0, 1, 3]],
+            sides: Vec::new(),
         };
         let before = (a.clone(), b.clone());
         assert_eq!(orient(&mut [&mut a, &mut b]), vec![false, false]);

@@ -336,6 +336,7 @@ mod tests {
             normals: vec![DVec3::Z; vertices.len()],
             vertices,
             triangles,
+            sides: Vec::new(),
         };
         let mut all = Vec::new();
         for t in &mesh.triangles {

@@ -4,8 +4,10 @@
 //! model part's tags). Each object, group, node or 3MF object becomes one named mesh; where
 //! the file has no names the meshes are named after the format. Normals are not read (the
 //! renderer shades by facets). GLB scenes are placed by their node transforms and turned
-//! back from glTF's +Y up to surfc's +Z up. Never panics: a file that does not parse is a
-//! [`ReadError`] naming it.
+//! back from glTF's +Y up to surfc's +Z up. Lengths come back in millimetres, the default
+//! unit of `.surf` lengths (`write::Unit`): GLB's metres and a 3MF model's `unit` are
+//! converted, the formats without a unit are read as they are. Never panics: a file that
+//! does not parse is a [`ReadError`] naming it.
 
 use std::io::{BufReader, Cursor, Read};
 use std::path::{Path, PathBuf};
@@ -13,7 +15,7 @@ use std::path::{Path, PathBuf};
 use glam::{DMat4, DVec3};
 
 use super::Mesh;
-use super::write::Format;
+use super::write::{Format, Unit};
 
 /// A mesh file that could not be read: the file or the command line is at fault.
 #[derive(Debug, thiserror::Error)]
@@ -87,6 +89,7 @@ fn mesh(vertices: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Mesh {
         vertices,
         normals: Vec::new(),
         triangles,
+        sides: Vec::new(),
     }
 }
 
@@ -248,13 +251,15 @@ fn read_glb(bytes: &[u8]) -> Result<Vec<(String, Mesh)>, String> {
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| e.to_string())?;
     let blob = gltf.blob.as_deref();
     let document = &gltf.document;
-    // glTF's +Y up back to +Z up: the inverse of surfc's root rotation.
+    // glTF's +Y up back to +Z up (the inverse of surfc's root rotation), and its metres to
+    // millimetres.
+    let to_mm = 1.0 / Unit::Millimetre.metres();
     let y_up_to_z_up = DMat4::from_cols_array(&[
         1.0, 0.0, 0.0, 0.0, //
         0.0, 0.0, 1.0, 0.0, //
         0.0, -1.0, 0.0, 0.0, //
         0.0, 0.0, 0.0, 1.0,
-    ]);
+    ]) * DMat4::from_scale(DVec3::splat(to_mm));
     let mut meshes = Vec::new();
     let roots: Vec<gltf::Node> = match document
         .default_scene()
@@ -337,8 +342,17 @@ fn read_3mf(bytes: &[u8]) -> Result<Vec<(String, Mesh)>, String> {
         .map_err(|e| format!("{model_name}: {e}"))?;
     let mut meshes = Vec::new();
     let mut current: Option<(String, Mesh)> = None;
+    // Millimetres per unit of the model (3MF's default unit is the millimetre).
+    let mut scale = 1.0;
     for tag in Tags(&text) {
         match tag.name {
+            "model" if !tag.end => {
+                if let Some(name) = tag.attribute("unit") {
+                    let unit = Unit::from_threemf_name(name.trim())
+                        .ok_or_else(|| format!("unknown unit `{name}`"))?;
+                    scale = unit.metres() / Unit::Millimetre.metres();
+                }
+            }
             "object" => {
                 if !tag.end {
                     let name = tag
@@ -366,6 +380,13 @@ fn read_3mf(bytes: &[u8]) -> Result<Vec<(String, Mesh)>, String> {
     }
     // Objects without a mesh (components only) draw nothing.
     meshes.retain(|(_, m)| !m.triangles.is_empty());
+    if scale != 1.0 {
+        for (_, mesh) in &mut meshes {
+            for v in &mut mesh.vertices {
+                *v *= scale;
+            }
+        }
+    }
     Ok(meshes)
 }
 

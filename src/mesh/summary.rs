@@ -1,17 +1,7 @@
-//! What `surfc mesh` tells a person on stderr: a progress bar while a slow mesh is being
-//! made, a short table afterwards (mesh, triangles, time, topology), and with `--stats` a
-//! table of shape statistics. The numbers are computed elsewhere; this module only shows
+//! What `surfc mesh` tells a person on stderr after meshing: a short table (mesh, triangles,
+//! time, topology), and with `--stats` a table of shape statistics (the progress lines while
+//! it meshes are `progress`'s). The numbers are computed elsewhere; this module only shows
 //! them.
-
-use std::io::IsTerminal;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::mpsc::{self, RecvTimeoutError};
-use std::thread::JoinHandle;
-use std::time::Duration;
-
-use glam::DVec3;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use super::quality::MeshReport;
 
@@ -70,111 +60,6 @@ fn topology(r: &MeshSummary) -> String {
             plural(bad, "non-manifold edge")
         ),
     }
-}
-
-/// How long a mesh may take before its progress bar appears.
-const SPINNER_DELAY: Duration = Duration::from_millis(500);
-/// How often a visible progress bar redraws.
-const SPINNER_TICK: Duration = Duration::from_millis(100);
-
-/// A progress bar for one mesh: the triangles made so far (read from a counter the marcher
-/// updates) and, where there is an estimate, a bar towards it. It appears only if the mesh
-/// takes longer than half a second, only when stderr is a terminal, never when quiet; it
-/// vanishes when finished or dropped.
-pub struct Progress {
-    bar: ProgressBar,
-    /// The marcher's triangle count.
-    counter: Arc<AtomicU64>,
-    /// Tells the timer thread that the mesh is done.
-    done: Option<mpsc::Sender<()>>,
-    timer: Option<JoinHandle<()>>,
-}
-
-impl Progress {
-    /// Starts timing the mesh called `name`, expected to have about `estimate` triangles.
-    pub fn start(name: &str, quiet: bool, estimate: Option<u64>) -> Progress {
-        let bar = ProgressBar::with_draw_target(estimate, ProgressDrawTarget::hidden());
-        let template = if estimate.is_some() {
-            "{spinner} meshing {msg}: {pos} of ~{len} triangles [{bar:30}] ({elapsed})"
-        } else {
-            "{spinner} meshing {msg}: {pos} triangles ({elapsed})"
-        };
-        if let Ok(style) = ProgressStyle::with_template(template) {
-            bar.set_style(style.progress_chars("=> "));
-        }
-        bar.set_message(name.to_owned());
-        let counter = Arc::new(AtomicU64::new(0));
-        if quiet || !std::io::stderr().is_terminal() {
-            return Progress {
-                bar,
-                counter,
-                done: None,
-                timer: None,
-            };
-        }
-        let (done, wait) = mpsc::channel::<()>();
-        let shown = bar.clone();
-        let count = Arc::clone(&counter);
-        let timer = std::thread::spawn(move || {
-            if wait.recv_timeout(SPINNER_DELAY) != Err(RecvTimeoutError::Timeout) {
-                return;
-            }
-            shown.set_draw_target(ProgressDrawTarget::stderr());
-            while wait.recv_timeout(SPINNER_TICK) == Err(RecvTimeoutError::Timeout) {
-                let made = count.load(Ordering::Relaxed);
-                // An estimate is only that: past it, the bar stays full and keeps counting.
-                if shown.length().is_some_and(|len| made > len) {
-                    shown.set_length(made);
-                }
-                shown.set_position(made);
-                shown.tick();
-            }
-        });
-        Progress {
-            bar,
-            counter,
-            done: Some(done),
-            timer: Some(timer),
-        }
-    }
-
-    /// The counter the marcher stores its triangle count into.
-    pub fn counter(&self) -> &AtomicU64 {
-        &self.counter
-    }
-
-    /// Removes the progress bar (if it appeared) and stops its timer.
-    pub fn finish(mut self) {
-        self.stop();
-    }
-
-    fn stop(&mut self) {
-        if let Some(done) = self.done.take() {
-            // The timer may have stopped already; then nobody listens, which is fine.
-            let _ = done.send(());
-        }
-        if let Some(timer) = self.timer.take() {
-            let _ = timer.join();
-        }
-        self.bar.finish_and_clear();
-    }
-}
-
-impl Drop for Progress {
-    fn drop(&mut self) {
-        self.stop();
-    }
-}
-
-/// A rough number of triangles for a mesh bounded by a box: triangles of edge `step` over
-/// half the box's surface area (about the area of a graph-like surface across the box). Only
-/// a guide for the progress bar; None for an empty or non-finite box.
-pub fn estimate_triangles(step: f64, lo: DVec3, hi: DVec3) -> Option<u64> {
-    let d = hi - lo;
-    let area = d.x * d.y + d.y * d.z + d.z * d.x;
-    let triangle = 3f64.sqrt() / 4.0 * step * step;
-    let estimate = area / triangle;
-    (estimate.is_finite() && estimate >= 1.0).then(|| estimate.min(u64::MAX as f64) as u64)
 }
 
 /// The `--stats` table: one line per mesh after a header line, columns aligned: the
@@ -285,31 +170,5 @@ sphere_six_holes       2206           1  1.50 s  6 boundary loops
 cap                      12           2    0 ms  1 boundary loop, 2 non-manifold edges
 ";
         assert_eq!(format_summary(&rows), expected);
-    }
-
-    #[test]
-    fn the_estimate_covers_half_the_box_surface() {
-        // A 2 × 2 × 1 box: half its surface is 4 + 2 + 2 = 8; a triangle of edge 0.1 has
-        // the area √3/4 · 0.01.
-        let estimate = estimate_triangles(0.1, DVec3::new(-1.0, -1.0, 0.0), DVec3::ONE);
-        let expected = 8.0 / (3f64.sqrt() / 4.0 * 0.01);
-        assert_eq!(estimate, Some(expected as u64));
-        assert_eq!(estimate_triangles(0.1, DVec3::ONE, DVec3::ONE), None);
-        assert_eq!(estimate_triangles(f64::NAN, DVec3::ZERO, DVec3::ONE), None);
-    }
-
-    #[test]
-    fn a_quiet_or_piped_spinner_never_draws() {
-        // Quiet: no timer at all. Otherwise (terminal or not) nothing shows in the first half
-        // second, and finishing early stops the timer before it fires.
-        for quiet in [true, false] {
-            let progress = Progress::start("m", quiet, Some(100));
-            assert!(progress.bar.is_hidden());
-            progress.counter().store(10, Ordering::Relaxed);
-            if quiet {
-                assert!(progress.timer.is_none());
-            }
-            progress.finish();
-        }
     }
 }

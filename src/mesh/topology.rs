@@ -170,6 +170,7 @@ mod tests {
             vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
             normals: vec![DVec3::Z; 4],
             triangles: vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+            sides: Vec::new(),
         }
     }
 

@@ -3,7 +3,6 @@
 //! pieces), the diagnostics when it cannot be completed, and the orientation of the nets the
 //! blocks form as one (docs/ARCHITECTURE.md).
 
-use std::sync::atomic::AtomicU64;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -16,8 +15,8 @@ use super::pieces;
 use crate::diag::{self, Diagnostic, messages};
 use crate::eval::Engine;
 use crate::march::{MarchError, MarchInput, PolygonRole, Start};
+use crate::mesh::progress::{Bars, Counts, estimate_triangles};
 use crate::mesh::quality::MeshReport;
-use crate::mesh::summary::{Progress, estimate_triangles};
 use crate::mesh::topology::Topology;
 use crate::mesh::{Mesh, NamedMesh, net};
 use crate::sema::program::{MeshDef, Program, SurfaceRef};
@@ -110,6 +109,7 @@ pub fn mesh_program(
     // (sampling is a function of the curve, the step and the box). Results are taken in
     // file order, the first failure in file order is the error: the same for any number of
     // threads.
+    let bars = Bars::new(quiet);
     let results: Vec<Result<Meshed, Diagnostic>> = blocks
         .par_iter()
         .map(|def| {
@@ -117,9 +117,9 @@ pub fn mesh_program(
             let estimate = def
                 .bbox
                 .and_then(|(lo, hi)| estimate_triangles(def.step, lo, hi));
-            let progress = Progress::start(&def.name, quiet, estimate);
-            let result = mesh_block(program, source, &mut builder, def, progress.counter());
-            progress.finish();
+            let line = bars.block(&def.name, estimate);
+            let result = mesh_block(program, source, &mut builder, def, line.count());
+            line.finish();
             result
         })
         .collect();
@@ -139,7 +139,7 @@ fn mesh_block(
     source: &str,
     builder: &mut Builder,
     def: &MeshDef,
-    progress: &AtomicU64,
+    progress: &Counts,
 ) -> Result<Meshed, Diagnostic> {
     let started = Instant::now();
     let build_failed = |e: BuildError| {
@@ -180,7 +180,7 @@ fn mesh_block(
         def.front,
         def.bounds.is_empty(),
     ) {
-        let out = creases::mesh(c, &mut surface, &fork, def, bbox)?;
+        let out = creases::mesh(c, &mut surface, &fork, def, bbox, progress)?;
         let counts = creases::counts(&out);
         let mut meshed = finish(
             program,
@@ -253,6 +253,7 @@ fn mesh_block(
                 bbox,
                 &settings,
                 &SearchSettings::default(),
+                Some(progress),
             )
             .map_err(|e| match &e {
                 SearchError::March { source, .. } => {
@@ -302,8 +303,14 @@ fn mesh_block(
     // (`pipeline::pieces`); not a surface with creases, whose pieces are its smooth forms.
     let fork: Option<&crate::surface::Fork<'_>> =
         if creased.is_none() { Some(&fork) } else { None };
-    let pieced = pieces::march(&mut surface, fork, &input, &settings, Some(progress))
-        .map_err(|e| failed(&e))?;
+    let pieced = pieces::march(
+        &mut surface,
+        fork,
+        &input,
+        &settings,
+        Some(&progress.triangles),
+    )
+    .map_err(|e| failed(&e))?;
     let marched = pieced.marched;
     if let Some(c) = creased.as_mut() {
         creases::check(c, def, &marched.mesh)?;

@@ -37,12 +37,14 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
+use crate::mesh::progress::Counts;
 use crate::solve::{SurfacePoint, surface_point};
 use crate::surface::{Fork, Surface};
 
@@ -240,6 +242,7 @@ pub fn mesh_components(
         settings,
         &Mesh::default(),
         false,
+        None,
     )
 }
 
@@ -248,6 +251,8 @@ pub fn mesh_components(
 /// evaluated before (the warm start of `dist`), and the components accepted in seed order
 /// exactly as one thread would. The same mesh, bit for bit, for any number of threads; for
 /// a surface without `dist` also the same as [`mesh_components`].
+/// `progress`, where given, counts the triangles of the marches as they go and the
+/// components as they are found (`mesh::progress`).
 pub fn mesh_components_forked(
     surface: &mut dyn Surface,
     fork: &Fork<'_>,
@@ -255,6 +260,7 @@ pub fn mesh_components_forked(
     bbox: (DVec3, DVec3),
     march_settings: &MarchSettings,
     settings: &SearchSettings,
+    progress: Option<&Counts>,
 ) -> Result<Components, SearchError> {
     search_components(
         surface,
@@ -265,15 +271,19 @@ pub fn mesh_components_forked(
         settings,
         &Mesh::default(),
         false,
+        progress,
     )
 }
 
 /// [`mesh_components`] around a mesh made already (`existing`, the smooth pieces of a surface
 /// with creases): seeds it covers start nothing. The result's mesh begins with `existing`;
 /// its component count and seeds are those of the new components only. With `fork`, the
-/// marches run as [`mesh_components_forked`] says. A seed where f touches zero without
-/// changing sign starts nothing: for a surface with creases that is the inner face of a union
-/// (two solids side by side, f ≤ 0 on both sides), which is no part of the surface.
+/// marches run as [`mesh_components_forked`] says, and `progress` counts as it says there
+/// (`existing`'s triangles are not added: the caller counted them). A seed where f touches
+/// zero without changing sign starts nothing: for a surface with creases that is the inner
+/// face of a union (two solids side by side, f ≤ 0 on both sides), which is no part of the
+/// surface.
+#[allow(clippy::too_many_arguments)]
 pub fn mesh_components_beside(
     surface: &mut dyn Surface,
     fork: Option<&Fork<'_>>,
@@ -282,6 +292,7 @@ pub fn mesh_components_beside(
     march_settings: &MarchSettings,
     settings: &SearchSettings,
     existing: &Mesh,
+    progress: Option<&Counts>,
 ) -> Result<Components, SearchError> {
     search_components(
         surface,
@@ -292,12 +303,15 @@ pub fn mesh_components_beside(
         settings,
         existing,
         true,
+        progress,
     )
 }
 
 /// The search of [`mesh_components_beside`]; with `fork`, the marches run as
 /// [`mesh_components_forked`] says, else one after another on `surface`. With
 /// `skip_touching`, seeds where f does not change sign start nothing.
+// The oracles, the marching, the box, two settings structs, the mesh so far, the flag and
+// the counts: each a caller's choice.
 #[allow(clippy::too_many_arguments)]
 fn search_components(
     surface: &mut dyn Surface,
@@ -308,6 +322,7 @@ fn search_components(
     settings: &SearchSettings,
     existing: &Mesh,
     skip_touching: bool,
+    progress: Option<&Counts>,
 ) -> Result<Components, SearchError> {
     let step = marching.step;
     let max_triangles = marching.max_triangles;
@@ -342,6 +357,7 @@ fn search_components(
         out: Components::default(),
         small: Vec::new(),
         skip_touching,
+        progress,
     };
     let Search { cover, out, .. } = &mut search;
     cover.add(&mut out.mesh, existing);
@@ -468,6 +484,8 @@ struct Search<'a> {
     settings: &'a SearchSettings,
     /// Triangles left for the components still to come.
     limit: u64,
+    /// Counts for a progress bar: the marches' triangles and the components found.
+    progress: Option<&'a Counts>,
     cover: Cover,
     out: Components,
     /// Seeds of components smaller than their local step (warned once).
@@ -663,11 +681,13 @@ impl Search<'_> {
             return Ok(());
         }
         let input = self.march_input(seed.sp.point, self.limit.max(1));
-        let marched = march::march_verified(self.surface, None, &input, self.march_settings, None)
-            .map_err(|source| SearchError::March {
-                seed: seed.sp.point,
-                source,
-            })?;
+        let triangles = self.progress.map(|p| &p.triangles);
+        let marched =
+            march::march_verified(self.surface, None, &input, self.march_settings, triangles)
+                .map_err(|source| SearchError::March {
+                    seed: seed.sp.point,
+                    source,
+                })?;
         self.accept(seed.sp.point, marched);
         Ok(())
     }
@@ -737,12 +757,30 @@ impl Search<'_> {
             // A sheet meshed already (its seed was missed as covered where the earlier mesh
             // stops short of the box's edges): kept once.
             self.out.duplicates += 1;
+            self.forget(&mesh);
             return;
         }
         self.cover.add(&mut self.out.mesh, &mesh);
         self.out.components += 1;
+        if let Some(p) = self.progress {
+            p.components.fetch_add(1, Ordering::Relaxed);
+        }
         self.out.seeds.push(at);
         self.out.triangles.push(mesh.triangles.len());
+    }
+
+    /// The count the marches add their triangles to, if any.
+    fn triangles(&self) -> Option<&AtomicU64> {
+        self.progress.map(|p| &p.triangles)
+    }
+
+    /// Takes the triangles of a marched mesh that is thrown away back from the count (its
+    /// march added them).
+    fn forget(&self, mesh: &Mesh) {
+        if let Some(p) = self.progress {
+            p.triangles
+                .fetch_sub(mesh.triangles.len() as u64, Ordering::Relaxed);
+        }
     }
 
     /// [`Search::try_seed`] for the next seed of `queue`, its march on a fresh oracle from
@@ -762,7 +800,9 @@ impl Search<'_> {
         };
         q.next += 1;
         if !self.screen(&seed) {
-            q.ready.remove(&i);
+            if let Some((_, Some(Ok(m)))) = q.ready.remove(&i) {
+                self.forget(&m.mesh);
+            }
             return Ok(());
         }
         let limit = self.limit.max(1);
@@ -829,7 +869,10 @@ impl Search<'_> {
                 });
             }
             // Without an oracle, failed or past this turn's limit: as one thread marches it.
-            _ => {
+            early => {
+                if let Some(Ok(m)) = &early {
+                    self.forget(&m.mesh);
+                }
                 let mut surface = (q.fork)().ok_or(SearchError::Fork)?;
                 let input = self.march_input(seed.sp.point, limit);
                 march::march_verified(
@@ -837,7 +880,7 @@ impl Search<'_> {
                     Some(q.fork),
                     &input,
                     self.march_settings,
-                    None,
+                    self.triangles(),
                 )
                 .map_err(|source| SearchError::March {
                     seed: seed.sp.point,
@@ -879,6 +922,7 @@ impl Search<'_> {
             .map(|&i| self.march_input(seeds[i].sp.point, limit))
             .collect();
         let settings = self.march_settings;
+        let triangles = self.triangles();
         inputs
             .par_iter()
             .map(|input| {
@@ -888,7 +932,7 @@ impl Search<'_> {
                     Some(fork),
                     input,
                     settings,
-                    None,
+                    triangles,
                 ))
             })
             .collect()
@@ -1033,6 +1077,11 @@ impl Cover {
         let first = mesh.triangles.len() as u32;
         mesh.vertices.extend_from_slice(&part.vertices);
         mesh.normals.extend_from_slice(&part.normals);
+        mesh.sides
+            .extend(part.sides.iter().map(|s| crate::mesh::Side {
+                vertex: s.vertex + offset,
+                ..*s
+            }));
         mesh.triangles
             .extend(part.triangles.iter().map(|t| t.map(|v| v + offset)));
         for (t, tri) in mesh.triangles.iter().enumerate().skip(first as usize) {

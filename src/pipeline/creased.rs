@@ -16,6 +16,7 @@ use super::crease_net::{self, CreaseError, CreaseSettings, CreasedMesh};
 use crate::compile::CompileError;
 use crate::diag::{Diagnostic, messages};
 use crate::mesh::Mesh;
+use crate::mesh::progress::Counts;
 use crate::sema::program::MeshDef;
 use crate::surface::Fork;
 use crate::surface::Surface;
@@ -60,6 +61,7 @@ pub(super) fn mesh(
     fork: &Fork<'_>,
     def: &MeshDef,
     bbox: (DVec3, DVec3),
+    progress: &Counts,
 ) -> Result<CreasedMesh, Diagnostic> {
     let marching = Marching {
         step: def.step,
@@ -76,6 +78,7 @@ pub(super) fn mesh(
         &super::build::march_settings(def),
         &SearchSettings::default(),
         &CreaseSettings::default(),
+        Some(progress),
     )
     .map_err(|e| failed(def, &e))?;
     if let Some(start) = def.start {
@@ -203,5 +206,16 @@ fn part_nearest(mesh: &Mesh, start: DVec3) -> Mesh {
         });
         out.triangles.push(t);
     }
+    out.sides = mesh
+        .sides
+        .iter()
+        .filter(|s| index.get(s.vertex as usize).is_some_and(|&k| k != u32::MAX))
+        .map(|s| crate::mesh::Side {
+            vertex: index[s.vertex as usize],
+            normal: s.normal,
+        })
+        .collect();
+    // Sorted by vertex, as `Mesh::sides` are (the kept vertices are renumbered in order of use).
+    out.sides.sort_by_key(|s| s.vertex);
     out
 }

@@ -161,7 +161,7 @@ pub fn march(
                         started.elapsed().as_secs_f64()
                     );
                 }
-                march_pieces(fork, input, settings, axis, &cuts, chi).map(Some)
+                march_pieces(fork, input, settings, axis, &cuts, chi, progress).map(Some)
             }
             None => Ok(None),
         });
@@ -188,6 +188,11 @@ pub fn march(
             }
             Ok(None) => {}
             Err(why) => {
+                // The slabs that were marched are thrown away: the count starts again with
+                // the whole march (nothing else of the block is counted yet).
+                if let Some(p) = progress {
+                    p.store(0, Ordering::Relaxed);
+                }
                 if trace {
                     eprintln!(
                         "pieces: marched whole: {why} ({:.3} s)",
@@ -491,6 +496,7 @@ fn march_pieces(
     axis: usize,
     cuts: &[Cut],
     chi: i64,
+    progress: Option<&AtomicU64>,
 ) -> Result<Pieced, NoCut> {
     let n = cuts.len() + 1;
     let inputs: Vec<MarchInput> = (0..n)
@@ -525,7 +531,7 @@ fn march_pieces(
         .enumerate()
         .map(|(piece, inp)| {
             let mut s = fork().ok_or(NoCut::Fork)?;
-            march::march_verified(&mut s, Some(fork), inp, settings, None)
+            march::march_verified(&mut s, Some(fork), inp, settings, progress)
                 .map_err(|source| NoCut::Piece { piece, source })
         })
         .collect();
@@ -735,6 +741,7 @@ mod tests {
                 vertices,
                 normals,
                 triangles,
+                sides: Vec::new(),
             }
         };
         let parts = [

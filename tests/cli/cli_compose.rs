@@ -200,11 +200,42 @@ fn json_failures_print_errors_on_stdout() {
     let never = "surface s = x^2 + y^2 + z^2 - 4;\n\
                  mesh m = s { step: 0.5; start: (1, 1, 1); max_triangles: 3; }\n";
     std::fs::write(dir.path().join("never.surf"), never).expect("written");
-    let (code, stdout, _) = cli::surfc(&["mesh", "never.surf", "--json", "-q"], dir.path()).bytes();
+    let (code, stdout, stderr) =
+        cli::surfc(&["mesh", "never.surf", "--json", "-q"], dir.path()).bytes();
     assert_eq!(code, 1);
     let json: serde_json::Value = serde_json::from_slice(&stdout).expect("JSON");
-    assert_eq!(json["errors"][0]["code"], "E0601");
-    assert_eq!(json["errors"][0]["line"], 2);
+    let error = &json["errors"][0];
+    assert_eq!(error["code"], "E0601");
+    assert_eq!(error["line"], 2);
+    // The reason and the fix, which stderr's diagnostic gives as its note and help, are in
+    // the JSON too, and so is every label with its place.
+    let notes = error["notes"].as_array().expect("notes");
+    assert!(!notes.is_empty(), "{error}");
+    for note in notes {
+        let note = note.as_str().expect("a note is text");
+        assert!(
+            note.contains("3") && stderr.contains(note),
+            "{note}\n{stderr}"
+        );
+    }
+    let help = error["help"].as_str().expect("a help");
+    assert!(
+        help.contains("max_triangles") && stderr.contains(help),
+        "{help}\n{stderr}"
+    );
+    let labels = error["labels"].as_array().expect("labels");
+    assert_eq!(labels[0]["primary"], true, "{error}");
+    assert_eq!(labels[0]["message"], "this mesh block");
+    assert_eq!(
+        (labels[0]["line"].as_u64(), labels[0]["file"].as_str()),
+        (Some(2), Some("never.surf"))
+    );
+    // Errors that are no diagnostic have none of them.
+    let (_, stdout, _) = cli::surfc(&["mesh", "nowhere.surf", "--json"], dir.path()).bytes();
+    let json: serde_json::Value = serde_json::from_slice(&stdout).expect("JSON");
+    assert!(json["errors"][0]["help"].is_null());
+    assert_eq!(json["errors"][0]["notes"], serde_json::json!([]));
+    assert_eq!(json["errors"][0]["labels"], serde_json::json!([]));
 
     // eval --json too: an unknown surface, and a file with errors.
     let (code, stdout, _) = cli::surfc(

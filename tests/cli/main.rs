@@ -1,5 +1,6 @@
-//! The `surfc` binary: its commands, exit codes and reports, pipelines, output safety, bounded
-//! work, thread-count determinism, and the README's own commands.
+//! The `surfc` binary: its commands, exit codes and reports, pipelines, output safety,
+//! interruptions, the progress lines, bounded work, thread-count determinism, and the
+//! README's own commands.
 //!
 //! One test binary (tests/README.md says which root holds what); the helpers of all roots are
 //! `tests/common/`.
@@ -11,7 +12,9 @@ mod bounded_work;
 mod cli_compose;
 mod csg_cli;
 mod eval_cli;
+mod interrupt;
 mod mesh_cli;
 mod output_safety;
+mod progress;
 mod readme;
 mod threads;

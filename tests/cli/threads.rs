@@ -283,7 +283,9 @@ fn components_on_the_pool_are_the_search_one_after_another() {
                 .build()
                 .expect("a pool");
             let forked = pool
-                .install(|| mesh_components_forked(&mut fresh(), &fork, marching, bbox, &ms, &ss))
+                .install(|| {
+                    mesh_components_forked(&mut fresh(), &fork, marching, bbox, &ms, &ss, None)
+                })
                 .expect("meshes");
             assert!(
                 bits(&forked.mesh) == bits(&one.mesh) && forked.seeds == one.seeds,

@@ -38,6 +38,7 @@ fn join(a: &Mesh, b: &Mesh) -> Mesh {
             .copied()
             .chain(b.triangles.iter().map(|t| t.map(|k| k + base)))
             .collect(),
+        sides: Vec::new(),
     }
 }
 

@@ -9,6 +9,9 @@ mod common;
 mod output_fixtures;
 
 mod obj_snapshot;
+mod parts;
 mod python_readers;
 mod render;
+mod sharp_edges;
+mod slicer;
 mod writers;

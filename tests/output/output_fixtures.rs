@@ -73,6 +73,7 @@ pub fn icosphere(levels: u32, r: f64) -> Mesh {
         vertices: unit.iter().map(|u| *u * r).collect(),
         normals: unit,
         triangles,
+        sides: Vec::new(),
     }
 }
 
@@ -131,6 +132,7 @@ pub fn no_triangles() -> Mesh {
         vertices: vec![DVec3::new(1.0, 2.0, 3.0)],
         normals: vec![DVec3::Z],
         triangles: vec![],
+        sides: Vec::new(),
     }
 }
 

@@ -1,11 +1,12 @@
 //! The new formats read back by the readers their users have: meshio (OBJ, gmsh MSH, VTK
-//! VTU) and trimesh (OBJ, 3MF), run by `python3` on files the writers made. Each block must
-//! come back apart from the others, under its name (or index, where the reader keeps no
+//! VTU), trimesh (OBJ, 3MF) and lib3mf (3MF, the 3MF consortium's reference library, in
+//! strict mode and without a warning), run by `python3` on files the writers made. Each block
+//! must come back apart from the others, under its name (or index, where the reader keeps no
 //! name), with the same triangles: the same corners bit for bit (every one of these formats
-//! is exact text) in the same winding.
+//! is exact text; lib3mf holds 32-bit floats, so to f32 there) in the same winding.
 //!
-//! Without python3, meshio, trimesh or lxml the tests say so on stderr and pass, unless
-//! `SURFC_REQUIRE_PY_READERS=1` (as `.ci/run` sets), under which they fail.
+//! Without python3, meshio, trimesh, lxml or lib3mf the tests say so on stderr and pass,
+//! unless `SURFC_REQUIRE_PY_READERS=1` (as `.ci/run` sets), under which they fail.
 
 use crate::output_fixtures;
 
@@ -36,33 +37,56 @@ fn triangle_set(triangles: impl Iterator<Item = Corners>) -> Vec<Corners> {
 }
 
 fn expected(mesh: &Mesh) -> Vec<Corners> {
-    triangle_set(
-        mesh.triangles
-            .iter()
-            .map(|t| t.map(|i| mesh.vertices[i as usize].to_array().map(f64::to_bits))),
-    )
+    expected_rounded(mesh, |x| x)
+}
+
+/// [`expected`] with every coordinate passed through `round` (a reader's precision).
+fn expected_rounded(mesh: &Mesh, round: fn(f64) -> f64) -> Vec<Corners> {
+    triangle_set(mesh.triangles.iter().map(|t| {
+        t.map(|i| {
+            mesh.vertices[i as usize]
+                .to_array()
+                .map(|x| round(x).to_bits())
+        })
+    }))
+}
+
+/// Whether python3 can import lib3mf; if not, says so loudly, and fails under
+/// `SURFC_REQUIRE_PY_READERS=1`.
+fn lib3mf_available() -> bool {
+    modules_available(&["lib3mf"], "the 3MF is NOT checked by lib3mf")
 }
 
 /// Whether the Python readers can run; if not, says so loudly, and fails under
 /// `SURFC_REQUIRE_PY_READERS=1`.
 fn python_readers_available() -> bool {
+    modules_available(
+        &["meshio", "trimesh", "lxml", "networkx"],
+        "the MSH, VTU, 3MF and OBJ files are NOT checked by independent readers",
+    )
+}
+
+/// Whether python3 can import `modules`; if not, says so loudly (`unchecked`: what goes
+/// unchecked then), and fails under `SURFC_REQUIRE_PY_READERS=1`.
+fn modules_available(modules: &[&str], unchecked: &str) -> bool {
     let ok = Command::new("python3")
-        .args(["-c", "import meshio, trimesh, lxml, networkx"])
+        .args(["-c", &format!("import {}", modules.join(", "))])
         .output()
         .is_ok_and(|o| o.status.success());
     if !ok {
+        let names = modules.join(", ");
         let required = std::env::var("SURFC_REQUIRE_PY_READERS").is_ok_and(|v| v == "1");
         assert!(
             !required,
-            "SURFC_REQUIRE_PY_READERS=1 but python3 with meshio, trimesh, lxml and networkx is not available"
+            "SURFC_REQUIRE_PY_READERS=1 but python3 with {names} is not available"
         );
         // Straight to the stderr handle: libtest captures `eprintln!` of passing tests, and
         // this must be seen.
         let _ = writeln!(
             std::io::stderr(),
-            "\n*** SKIPPED: python3 with meshio, trimesh, lxml and networkx is not available; the \
-             MSH, VTU, 3MF and OBJ files are NOT checked by independent readers. \
-             `pip install meshio trimesh lxml networkx` (or run .ci/run) to check them. ***\n"
+            "\n*** SKIPPED: python3 with {names} is not available; {unchecked}. `pip install {}` \
+             (or run .ci/run) to check them. ***\n",
+            modules.join(" ")
         );
     }
     ok
@@ -78,6 +102,12 @@ struct Block {
 /// Runs tests/readers/read_mesh.py: the number of points the reader found (if it says) and
 /// the blocks.
 fn read_with(reader: &str, format: Format, path: &Path) -> (Option<usize>, Vec<Block>) {
+    let json = read_json(reader, format, path);
+    blocks_of(&json)
+}
+
+/// What tests/readers/read_mesh.py prints.
+fn read_json(reader: &str, format: Format, path: &Path) -> serde_json::Value {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/readers/read_mesh.py");
     let output = Command::new("python3")
         .arg(&script)
@@ -90,8 +120,11 @@ fn read_with(reader: &str, format: Format, path: &Path) -> (Option<usize>, Vec<B
         "{reader} could not read the {format} file:\n{}",
         String::from_utf8_lossy(&output.stderr)
     );
-    let json: serde_json::Value =
-        serde_json::from_slice(&output.stdout).expect("the script prints JSON");
+    serde_json::from_slice(&output.stdout).expect("the script prints JSON")
+}
+
+/// The number of points the reader found (if it says) and the blocks.
+fn blocks_of(json: &serde_json::Value) -> (Option<usize>, Vec<Block>) {
     let points = json["points"].as_u64().map(|n| n as usize);
     let blocks = json["blocks"]
         .as_array()
@@ -241,4 +274,74 @@ fn meshio_reads_vtu_blocks_from_cell_data() {
 #[test]
 fn trimesh_reads_3mf_objects_by_name() {
     check("trimesh", Format::ThreeMf, false);
+}
+
+/// lib3mf, strict, reads every object of the cases under its name with the same triangles
+/// (to f32), one build item each, and the unit written; no warning. The case with hard
+/// numbers is left out: lib3mf refuses coordinates beyond 10⁹ (its own limit; the format's
+/// numbers are doubles).
+#[test]
+fn lib3mf_reads_3mf_strictly_without_warnings() {
+    use surfc::mesh::write::{Unit, WriteOptions, write_mesh_file_with};
+
+    if !lib3mf_available() {
+        return;
+    }
+    let mut cases = Cases::new();
+    cases.meshes.retain(|(name, _)| *name != "tricky");
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    for unit in [Unit::Millimetre, Unit::Inch] {
+        let path = dir.path().join(format!("cases-{unit}.3mf"));
+        let options = WriteOptions {
+            unit,
+            written: None,
+        };
+        write_mesh_file_with(&path, Format::ThreeMf, &cases.named(), &options).expect("written");
+        let json = read_json("lib3mf", Format::ThreeMf, &path);
+        assert_eq!(json["unit"], unit.threemf_name());
+        let (_, blocks) = blocks_of(&json);
+        let drawn: Vec<&(&str, Mesh)> = cases
+            .meshes
+            .iter()
+            .filter(|(_, m)| !m.triangles.is_empty())
+            .collect();
+        assert_eq!(blocks.len(), drawn.len());
+        assert_eq!(json["build_items"].as_u64(), Some(drawn.len() as u64));
+        for ((name, mesh), block) in drawn.iter().zip(&blocks) {
+            assert_eq!(block.name.as_deref(), Some(*name));
+            let want = expected_rounded(mesh, |x| f64::from(x as f32));
+            assert!(block.triangles == want, "lib3mf: `{name}` differs");
+        }
+    }
+}
+
+/// lib3mf, strict, reads the 3MF of the CAD part and of the torus without a warning, finds
+/// each object manifold and oriented (closed, every edge walked once each way), and gets the
+/// triangles written.
+#[test]
+fn lib3mf_finds_the_parts_closed_and_oriented() {
+    if !lib3mf_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    for (name, meshed) in [
+        ("plate", crate::parts::plate()),
+        ("torus", crate::parts::torus()),
+    ] {
+        let path = dir.path().join(format!("{name}.3mf"));
+        let meshes = crate::parts::named(meshed);
+        write_mesh_file(&path, Format::ThreeMf, &meshes).expect("written");
+        let json = read_json("lib3mf", Format::ThreeMf, &path);
+        let (_, blocks) = blocks_of(&json);
+        assert_eq!(blocks.len(), meshes.len(), "{name}");
+        for (named, (block, raw)) in meshes.iter().zip(
+            blocks
+                .iter()
+                .zip(json["blocks"].as_array().expect("blocks")),
+        ) {
+            assert_eq!(raw["manifold"], true, "{name}: `{}`", named.name);
+            let want = expected_rounded(named.mesh, |x| f64::from(x as f32));
+            assert!(block.triangles == want, "{name}: `{}` differs", named.name);
+        }
+    }
 }

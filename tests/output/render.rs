@@ -162,6 +162,7 @@ fn square(height: f64, half: f64) -> Mesh {
             .collect(),
         normals: vec![DVec3::Z; 4],
         triangles: vec![[0, 1, 2], [0, 2, 3]],
+        sides: Vec::new(),
     }
 }
 

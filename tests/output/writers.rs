@@ -16,7 +16,7 @@ use surfc::mesh::write::{
     Format, GLB_ROOT_NODE, InvalidMesh, WriteError, write_3mf, write_atomic, write_glb,
     write_mesh_file, write_msh, write_obj, write_off, write_ply, write_stl, write_vtu,
 };
-use surfc::mesh::{Mesh, NamedMesh};
+use surfc::mesh::{Mesh, NamedMesh, Side};
 
 fn bytes(
     write: fn(&mut dyn Write, &[NamedMesh]) -> io::Result<()>,
@@ -328,9 +328,6 @@ fn stl_reads_back_with_stl_io_to_f32_precision() {
 
 #[test]
 fn ply_reads_back_exactly_with_ply_rs() {
-    use ply_rs_bw::parser::Parser;
-    use ply_rs_bw::ply::{DefaultElement, Property};
-
     let cases = Cases::new();
     let tricky = tricky_numbers();
     let mut meshes = cases.named();
@@ -339,28 +336,7 @@ fn ply_reads_back_exactly_with_ply_rs() {
         mesh: &tricky,
     });
     let data = bytes(write_ply, &meshes);
-    let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut Cursor::new(&data))
-        .expect("ply-rs reads the PLY");
-    let double = |e: &DefaultElement, key: &str| match e.get(key) {
-        Some(Property::Double(x)) => *x,
-        other => panic!("{key} is {other:?}"),
-    };
-    let vertices: Vec<(DVec3, DVec3)> = ply.payload["vertex"]
-        .iter()
-        .map(|e| {
-            let p = DVec3::new(double(e, "x"), double(e, "y"), double(e, "z"));
-            let n = DVec3::new(double(e, "nx"), double(e, "ny"), double(e, "nz"));
-            (p, n)
-        })
-        .collect();
-    let faces: Vec<Vec<i32>> = ply.payload["face"]
-        .iter()
-        .map(|e| match e.get("vertex_indices") {
-            Some(Property::ListInt(list)) => list.clone(),
-            other => panic!("vertex_indices is {other:?}"),
-        })
-        .collect();
+    let (vertices, faces) = crate::sharp_edges::ply_vertices_and_faces(&data);
     let expected: Vec<[([u64; 3], [u64; 3]); 3]> = meshes
         .iter()
         .flat_map(|m| {
@@ -433,7 +409,8 @@ fn glb_imports_with_gltf_to_f32_precision() {
     assert_eq!(roots.len(), 1);
     assert_eq!(roots[0].name(), Some(GLB_ROOT_NODE));
     let (_, rotation, scale) = roots[0].transform().decomposed();
-    assert_eq!(scale, [1.0; 3]);
+    // Millimetres, the default unit, to glTF's metres.
+    assert_eq!(scale, [0.001; 3]);
     // The rotation takes the model's +z to +y and +y to −z.
     let q = glam::Quat::from_array(rotation);
     assert!((q * glam::Vec3::Z).distance(glam::Vec3::Y) < 1e-6);
@@ -559,6 +536,49 @@ fn every_writer_rejects_what_it_cannot_write() {
             matches!(format, Format::Stl | Format::Glb),
             "{format}: f64::MAX fits only 64-bit formats"
         );
+        // Sides, which only the formats with normals write, must name a vertex and be finite.
+        let normals_stored = matches!(format, Format::Obj | Format::Ply | Format::Glb);
+        let mut side = grid_patch(2);
+        side.sides = vec![
+            Side {
+                vertex: 4,
+                normal: DVec3::Z,
+            },
+            Side {
+                vertex: 40,
+                normal: DVec3::X,
+            },
+        ];
+        if normals_stored {
+            assert!(matches!(
+                write(&side),
+                InvalidMesh::SideOutOfRange {
+                    vertex: 40,
+                    vertices: 9,
+                    ..
+                }
+            ));
+            side.sides[1] = Side {
+                vertex: 4,
+                normal: DVec3::new(0.0, f64::INFINITY, 0.0),
+            };
+            assert!(matches!(
+                write(&side),
+                InvalidMesh::NonFiniteNormal { vertex: 4, .. }
+            ));
+        } else {
+            assert!(
+                format
+                    .write(
+                        &mut Vec::new(),
+                        &[NamedMesh {
+                            name: "m",
+                            mesh: &side
+                        }]
+                    )
+                    .is_ok()
+            );
+        }
     }
 }
 
@@ -733,6 +753,7 @@ mod round_trip {
                 normals: vec![DVec3::Z; vertices.len()],
                 triangles: (0..n - 2).map(|i| [i, i + 1, i + 2]).collect(),
                 vertices,
+                sides: Vec::new(),
             }
         })
     }
@@ -799,5 +820,186 @@ fn surfc_reads_back_the_formats_it_draws() {
                 );
             }
         }
+    }
+}
+
+// ---- units ----
+
+/// `--unit`: 3MF records it as its `unit`, GLB scales the model to glTF's metres on the root
+/// node (none for metres) and keeps the vertex data; surfc's reader gives millimetres back.
+#[test]
+fn units_are_recorded_by_3mf_and_glb() {
+    use surfc::mesh::read::read_mesh;
+    use surfc::mesh::write::{Unit, WriteOptions};
+
+    let sphere = icosphere(1, 2.0);
+    let meshes = [NamedMesh {
+        name: "sphere",
+        mesh: &sphere,
+    }];
+    for unit in Unit::ALL {
+        let options = WriteOptions {
+            unit,
+            written: None,
+        };
+        let write = |format: Format| {
+            let mut out = Vec::new();
+            format
+                .write_with(&mut out, &meshes, &options)
+                .expect("written");
+            out
+        };
+        let to_mm = unit.metres() / Unit::Millimetre.metres();
+
+        let glb = write(Format::Glb);
+        let (document, blob) = import_glb(&glb);
+        let root = document
+            .default_scene()
+            .and_then(|s| s.nodes().next())
+            .expect("a root node");
+        let (_, _, scale) = root.transform().decomposed();
+        assert_eq!(scale, [unit.metres() as f32; 3], "{unit}");
+        let json = String::from_utf8_lossy(&glb[20..]).into_owned();
+        assert_eq!(json.contains("\"scale\""), unit != Unit::Metre, "{unit}");
+        let node = root.children().next().expect("the mesh's node");
+        let primitive = node
+            .mesh()
+            .expect("a mesh")
+            .primitives()
+            .next()
+            .expect("one");
+        let positions: Vec<[f32; 3]> = primitive
+            .reader(|_| Some(&blob[..]))
+            .read_positions()
+            .expect("positions")
+            .collect();
+        let expected: Vec<[f32; 3]> = sphere.vertices.iter().map(|&v| f32s(v)).collect();
+        assert_eq!(
+            positions, expected,
+            "{unit}: the vertex data are the model's own"
+        );
+
+        let package = write(Format::ThreeMf);
+        let mut archive = zip::ZipArchive::new(Cursor::new(&package)).expect("a zip");
+        let mut model = String::new();
+        std::io::Read::read_to_string(
+            &mut archive.by_name("3D/3dmodel.model").expect("the model"),
+            &mut model,
+        )
+        .expect("UTF-8");
+        assert!(
+            model.contains(&format!("<model unit=\"{}\"", unit.threemf_name())),
+            "{unit}"
+        );
+
+        for (format, data, tolerance) in
+            [(Format::Glb, &glb, 1e-6), (Format::ThreeMf, &package, 0.0)]
+        {
+            let read = read_mesh(data, format).expect("read");
+            for (got, want) in read[0].1.vertices.iter().zip(&sphere.vertices) {
+                let want = *want * to_mm;
+                assert!(
+                    got.distance(want) <= tolerance * want.length(),
+                    "{unit} {format}: {got} read, {want} mm written"
+                );
+            }
+        }
+    }
+}
+
+// ---- the 3MF package ----
+
+/// The extra fields of every local and central header of a zip archive, as (id, data).
+fn zip_extra_fields(zip: &[u8]) -> Vec<(u16, Vec<u8>)> {
+    let u16_at = |i: usize| u16::from_le_bytes([zip[i], zip[i + 1]]);
+    let u32_at = |i: usize| u32::from_le_bytes([zip[i], zip[i + 1], zip[i + 2], zip[i + 3]]);
+    let fields = |mut at: usize, end: usize, out: &mut Vec<(u16, Vec<u8>)>| {
+        while at + 4 <= end {
+            let (id, size) = (u16_at(at), usize::from(u16_at(at + 2)));
+            out.push((id, zip[at + 4..at + 4 + size].to_vec()));
+            at += 4 + size;
+        }
+    };
+    // The end of central directory record: its last 22 bytes (surfc writes no comment).
+    let end = zip.len() - 22;
+    assert_eq!(
+        u32_at(end),
+        0x0605_4b50,
+        "an end of central directory record"
+    );
+    let entries = usize::from(u16_at(end + 10));
+    let mut at = u32_at(end + 16) as usize;
+    let mut out = Vec::new();
+    for _ in 0..entries {
+        assert_eq!(u32_at(at), 0x0201_4b50, "a central directory header");
+        let (name, extra, comment) = (
+            usize::from(u16_at(at + 28)),
+            usize::from(u16_at(at + 30)),
+            usize::from(u16_at(at + 32)),
+        );
+        let local = u32_at(at + 42) as usize;
+        assert_eq!(u32_at(local), 0x0403_4b50, "a local header");
+        let (local_name, local_extra) = (
+            usize::from(u16_at(local + 26)),
+            usize::from(u16_at(local + 28)),
+        );
+        fields(
+            local + 30 + local_name,
+            local + 30 + local_name + local_extra,
+            &mut out,
+        );
+        fields(at + 46 + name, at + 46 + name + extra, &mut out);
+        at += 46 + name + extra + comment;
+    }
+    out
+}
+
+/// The package is plain zip: no zip64 record (id 1) anywhere, which miniz (PrusaSlicer),
+/// libzip and lib3mf refused when the zip crate wrote two of them for the model part.
+#[test]
+fn the_3mf_package_has_no_zip64_records() {
+    let cases = Cases::new();
+    let package = bytes(write_3mf, &cases.named());
+    let fields = zip_extra_fields(&package);
+    assert!(
+        fields.iter().all(|(id, _)| *id != 1),
+        "zip64 records: {fields:?}"
+    );
+    let archive = zip::ZipArchive::new(Cursor::new(&package)).expect("a zip");
+    assert_eq!(archive.len(), 3);
+}
+
+/// The count of bytes written (for the progress line) ends at the file's size; for 3MF,
+/// whose package is put together in memory, at the model part's size before compression.
+#[test]
+fn the_bytes_written_are_counted() {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    use surfc::mesh::write::{WriteOptions, write_mesh_file_with};
+
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let sphere = icosphere(4, 1.0);
+    let meshes = [NamedMesh {
+        name: "sphere",
+        mesh: &sphere,
+    }];
+    for format in Format::ALL {
+        let path = dir.path().join(format!("counted.{}", format.extension()));
+        let written = AtomicU64::new(0);
+        let options = WriteOptions {
+            written: Some(&written),
+            ..WriteOptions::default()
+        };
+        write_mesh_file_with(&path, format, &meshes, &options).expect("written");
+        let expected = if format == Format::ThreeMf {
+            let file = fs::File::open(&path).expect("the package");
+            let mut archive = zip::ZipArchive::new(file).expect("a zip");
+            archive
+                .by_name("3D/3dmodel.model")
+                .expect("the model")
+                .size()
+        } else {
+            fs::metadata(&path).expect("the file").len()
+        };
+        assert_eq!(written.load(Ordering::Relaxed), expected, "{format}");
     }
 }

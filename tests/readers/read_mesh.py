@@ -1,10 +1,12 @@
 """Reads a mesh file with an independent reader and prints what it found as JSON.
 
-Usage: python3 read_mesh.py READER FORMAT PATH, READER one of meshio, trimesh.
+Usage: python3 read_mesh.py READER FORMAT PATH, READER one of meshio, trimesh, lib3mf.
 Prints {"points": N or null, "blocks": [{"name": str|null, "index": int|null,
 "triangles": [[[x, y, z], [x, y, z], [x, y, z]], ...]}, ...]}, each coordinate as the
-bit pattern of its f64 (an integer), so that no JSON parser can round it. Used by
-tests/python_readers.rs.
+bit pattern of its f64 (an integer), so that no JSON parser can round it. lib3mf (3MF only)
+reads in strict mode, fails on any warning, and adds per block whether lib3mf finds it
+manifold and oriented, and the model's unit and build items. Used by
+tests/output/python_readers.rs.
 """
 
 import json
@@ -60,7 +62,41 @@ def with_trimesh(fmt, path):
     return {"points": None, "blocks": blocks}
 
 
+def with_lib3mf(fmt, path):
+    import lib3mf
+
+    assert fmt == "3mf", fmt
+    model = lib3mf.get_wrapper().CreateModel()
+    reader = model.QueryReader("3mf")
+    # Strict: what lib3mf would only warn about is an error, and a warning fails too.
+    reader.SetStrictModeActive(True)
+    reader.ReadFromFile(path)
+    warnings = [reader.GetWarning(i) for i in range(reader.GetWarningCount())]
+    assert not warnings, warnings
+    blocks = []
+    objects = model.GetMeshObjects()
+    while objects.MoveNext():
+        o = objects.GetCurrentMeshObject()
+        # lib3mf holds coordinates as 32-bit floats: these are their exact values.
+        points = [list(v.Coordinates) for v in o.GetVertices()]
+        cells = [list(t.Indices) for t in o.GetTriangleIndices()]
+        blocks.append({
+            "name": o.GetName(),
+            "index": None,
+            "triangles": [[[bits(x) for x in points[i]] for i in cell] for cell in cells],
+            "manifold": o.IsManifoldAndOriented(),
+        })
+    items = model.GetBuildItems()
+    count = 0
+    while items.MoveNext():
+        count += 1
+    units = {lib3mf.ModelUnit.MicroMeter: "micron", lib3mf.ModelUnit.MilliMeter: "millimeter",
+             lib3mf.ModelUnit.CentiMeter: "centimeter", lib3mf.ModelUnit.Inch: "inch",
+             lib3mf.ModelUnit.Foot: "foot", lib3mf.ModelUnit.Meter: "meter"}
+    return {"points": None, "blocks": blocks, "unit": units[model.GetUnit()], "build_items": count}
+
+
 if __name__ == "__main__":
     reader, fmt, path = sys.argv[1:]
-    found = {"meshio": with_meshio, "trimesh": with_trimesh}[reader](fmt, path)
+    found = {"meshio": with_meshio, "trimesh": with_trimesh, "lib3mf": with_lib3mf}[reader](fmt, path)
     print(json.dumps(found))

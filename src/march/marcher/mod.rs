@@ -26,6 +26,7 @@ use super::ring::{FrontId, NodeId, PointId, Rings};
 use super::settings::MarchSettings;
 use super::{MarchError, MarchInput, PolygonRole, Start};
 use crate::mesh::Mesh;
+use crate::mesh::progress::Tally;
 use crate::solve::{SurfacePoint, surface_point, tangent_frame};
 use crate::surface::Surface;
 use crate::survey::gradient_jump;
@@ -113,7 +114,7 @@ pub(super) fn run<'s>(
     input: &MarchInput,
     settings: &MarchSettings,
     sizing: &'s Sizing,
-    progress: Option<&'s std::sync::atomic::AtomicU64>,
+    tally: &'s Tally<'s>,
 ) -> Result<Triangulation, MarchError> {
     let step = input.step;
     if !(step.is_finite() && step > 0.0) {
@@ -143,7 +144,7 @@ pub(super) fn run<'s>(
                 .max_triangles
                 .unwrap_or_else(|| guard::default_limit(input.bbox, step, settings.max_triangles)),
         ),
-        progress,
+        tally,
         trace,
         pos: Vec::new(),
         normal: Vec::new(),
@@ -205,8 +206,8 @@ struct Marcher<'s> {
     bbox: Option<(DVec3, DVec3)>,
     /// The triangle limit and the watch for marches that cannot end.
     guard: Guard,
-    /// Where the triangle count goes for a progress bar, if anyone watches.
-    progress: Option<&'s std::sync::atomic::AtomicU64>,
+    /// The march's share of the triangle count a progress bar shows (a batch at a time).
+    tally: &'s Tally<'s>,
     trace: bool,
     // Points (= mesh vertices).
     pos: Vec<DVec3>,
@@ -585,12 +586,7 @@ impl Marcher<'_> {
             }
             self.complete(m)?;
             idle = 0;
-            if let Some(progress) = self.progress {
-                progress.store(
-                    self.triangles.len() as u64,
-                    std::sync::atomic::Ordering::Relaxed,
-                );
-            }
+            self.tally.at(self.triangles.len() as u64);
             if let Some((at, turn)) = self.hidden_crease {
                 return Err(MarchError::HiddenCrease {
                     at,
@@ -681,6 +677,7 @@ impl Marcher<'_> {
                 vertices: self.pos,
                 normals: self.normal,
                 triangles: self.triangles,
+                sides: Vec::new(),
             },
             border: self.border,
             fixed: self.fixed_points as usize,

@@ -3,17 +3,20 @@
 //! specification requires) and u32 indices, drawn with one default material (light grey,
 //! double-sided: an open surface is seen from both sides). A mesh without triangles is a node
 //! without a mesh (glTF allows no empty accessors). Vertices are not shared between meshes:
-//! each primitive owns its attribute arrays.
+//! each primitive owns its attribute arrays, and a vertex on a sharp edge is one vertex per
+//! side (`split`), so that each face is shaded by its own normal.
 //!
 //! glTF is +Y up, surfc's models are +Z up: the mesh nodes are children of one root node
-//! whose rotation (−90° about x) turns the model's z into glTF's y. The vertex data stay the
-//! model's own coordinates.
+//! whose rotation (−90° about x) turns the model's z into glTF's y, and whose scale turns
+//! the model's unit into glTF's metres (none for metres). The vertex data stay the model's
+//! own coordinates.
 
 use std::io::{self, Write};
 
 use serde_json::{Value, json};
 
-use super::{Format, InvalidMesh, NamedMesh};
+use super::split::{Split, split};
+use super::{Format, InvalidMesh, NamedMesh, Unit, WriteOptions};
 
 /// glTF bufferView targets.
 const ARRAY_BUFFER: u32 = 34962;
@@ -38,31 +41,32 @@ const MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: &[u8; 4] = b"JSON";
 const CHUNK_BIN: &[u8; 4] = b"BIN\0";
 
-/// Writes the meshes as one GLB file (see the module comment).
+/// Writes the meshes as one GLB file (see the module comment), in millimetres (the default
+/// [`Unit`]).
 pub fn write_glb(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
-    super::checked(Format::Glb, out, meshes, write)
+    Format::Glb.write_with(out, meshes, &WriteOptions::default())
 }
 
 /// The bytes a mesh contributes to the binary chunk: positions, normals, indices.
-fn sizes(named: &NamedMesh) -> [u64; 3] {
-    let vertices = named.mesh.vertices.len() as u64;
-    let triangles = named.mesh.triangles.len() as u64;
+fn sizes(mesh: &Split) -> [u64; 3] {
+    let vertices = mesh.vertices.len() as u64;
+    let triangles = mesh.triangles.len() as u64;
     [12 * vertices, 12 * vertices, 12 * triangles]
 }
 
-pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
-    let drawn = |m: &NamedMesh| !m.mesh.triangles.is_empty();
+pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh], unit: Unit) -> io::Result<()> {
+    let splits: Vec<Split> = meshes.iter().map(|m| split(m.mesh)).collect();
+    let drawn = |m: &Split| !m.triangles.is_empty();
     let mut nodes = Vec::new();
     let mut gltf_meshes = Vec::new();
     let mut accessors = Vec::new();
     let mut views = Vec::new();
     let mut offset = 0u64;
-    for named in meshes {
-        if !drawn(named) {
+    for (named, mesh) in meshes.iter().zip(&splits) {
+        if !drawn(mesh) {
             nodes.push(json!({ "name": named.name }));
             continue;
         }
-        let mesh = named.mesh;
         let (lo, hi) = mesh.vertices.iter().fold(
             ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
             |(lo, hi), v| {
@@ -75,7 +79,7 @@ pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()>
         );
         let first = accessors.len();
         let targets = [ARRAY_BUFFER, ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER];
-        for (k, (size, target)) in sizes(named).into_iter().zip(targets).enumerate() {
+        for (k, (size, target)) in sizes(mesh).into_iter().zip(targets).enumerate() {
             views.push(json!({
                 "buffer": 0, "byteOffset": offset, "byteLength": size, "target": target
             }));
@@ -116,11 +120,15 @@ pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()>
     );
     if !nodes.is_empty() {
         let root = nodes.len();
-        nodes.push(json!({
+        let mut node = json!({
             "name": ROOT_NODE,
             "rotation": Z_UP_TO_Y_UP,
             "children": (0..root).collect::<Vec<_>>()
-        }));
+        });
+        if unit != Unit::Metre {
+            node["scale"] = json!([unit.metres(), unit.metres(), unit.metres()]);
+        }
+        nodes.push(node);
         document.insert("scene".into(), json!(0));
         document.insert("scenes".into(), json!([{ "nodes": [root] }]));
     }
@@ -180,10 +188,9 @@ pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()>
     out.write_all(&u32::try_from(offset).unwrap_or(u32::MAX).to_le_bytes())?;
     out.write_all(CHUNK_BIN)?;
     let mut bytes = Vec::with_capacity(1 << 16);
-    for named in meshes.iter().filter(|m| drawn(m)) {
-        let mesh = named.mesh;
+    for mesh in splits.iter().filter(|m| drawn(m)) {
         for list in [&mesh.vertices, &mesh.normals] {
-            for v in list {
+            for v in list.iter() {
                 for x in v.to_array() {
                     bytes.extend_from_slice(&(x as f32).to_le_bytes());
                 }
@@ -192,7 +199,7 @@ pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()>
                 }
             }
         }
-        for tri in &mesh.triangles {
+        for tri in mesh.triangles.iter() {
             for i in tri {
                 bytes.extend_from_slice(&i.to_le_bytes());
             }

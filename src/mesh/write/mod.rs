@@ -7,13 +7,17 @@
 //! function of the meshes: same meshes, same bytes. Files are written atomically by
 //! [`write_mesh_file`] (temporary file in the target's directory, then rename), so a failure
 //! leaves an existing file as it was. The formats and their precision are described in
-//! `docs/formats.md`.
+//! `docs/formats.md`. Beyond the meshes, [`WriteOptions`] say the unit of the coordinates
+//! (for the formats that record one: 3MF, GLB) and where to count the bytes written (for a
+//! progress bar). Files being written are known to [`remove_temporary_files`], which a
+//! signal handler calls so that an interrupted write leaves nothing behind.
 
 mod glb;
 mod msh;
 mod obj;
 mod off;
 mod ply;
+mod split;
 mod stl;
 pub mod target;
 mod text;
@@ -26,6 +30,8 @@ use std::fs;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
 
@@ -138,18 +144,20 @@ impl Format {
         path
     }
 
-    /// Writes the meshes in this format.
+    /// Writes the meshes in this format, with the default [`WriteOptions`].
     pub fn write(self, out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
-        match self {
-            Format::Obj => write_obj(out, meshes),
-            Format::Stl => write_stl(out, meshes),
-            Format::Ply => write_ply(out, meshes),
-            Format::Off => write_off(out, meshes),
-            Format::Glb => write_glb(out, meshes),
-            Format::ThreeMf => write_3mf(out, meshes),
-            Format::Msh => write_msh(out, meshes),
-            Format::Vtu => write_vtu(out, meshes),
-        }
+        self.write_with(out, meshes, &WriteOptions::default())
+    }
+
+    /// Writes the meshes in this format as `options` say.
+    pub fn write_with(
+        self,
+        out: &mut dyn Write,
+        meshes: &[NamedMesh],
+        options: &WriteOptions,
+    ) -> io::Result<()> {
+        validate(meshes, self)?;
+        self.write_unchecked(out, meshes, options)
     }
 
     /// Whether the format stores coordinates as f32 (so that they must fit).
@@ -174,6 +182,91 @@ impl FromStr for Format {
     fn from_str(s: &str) -> Result<Format, FormatError> {
         Format::from_extension(s).ok_or_else(|| FormatError::UnknownName(s.to_owned()))
     }
+}
+
+/// The length unit of a `.surf` file's coordinates, for the formats that record one: 3MF's
+/// `unit` attribute and GLB's scale to metres (glTF's unit). The other formats hold bare
+/// numbers. The default is the millimetre, 3MF's own default and what slicers assume of STL
+/// files (docs/formats.md, *Units*).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Unit {
+    Micron,
+    #[default]
+    Millimetre,
+    Centimetre,
+    Metre,
+    Inch,
+    Foot,
+}
+
+impl Unit {
+    /// Every unit, smallest first: the units of 3MF.
+    pub const ALL: [Unit; 6] = [
+        Unit::Micron,
+        Unit::Millimetre,
+        Unit::Centimetre,
+        Unit::Inch,
+        Unit::Foot,
+        Unit::Metre,
+    ];
+
+    /// The length of one unit in metres.
+    pub fn metres(self) -> f64 {
+        match self {
+            Unit::Micron => 1e-6,
+            Unit::Millimetre => 1e-3,
+            Unit::Centimetre => 1e-2,
+            Unit::Metre => 1.0,
+            Unit::Inch => 0.0254,
+            Unit::Foot => 0.3048,
+        }
+    }
+
+    /// The name of the unit in a 3MF model's `unit` attribute.
+    pub fn threemf_name(self) -> &'static str {
+        match self {
+            Unit::Micron => "micron",
+            Unit::Millimetre => "millimeter",
+            Unit::Centimetre => "centimeter",
+            Unit::Metre => "meter",
+            Unit::Inch => "inch",
+            Unit::Foot => "foot",
+        }
+    }
+
+    /// The unit a 3MF `unit` attribute names.
+    pub fn from_threemf_name(name: &str) -> Option<Unit> {
+        Unit::ALL.into_iter().find(|u| u.threemf_name() == name)
+    }
+
+    /// The short name of the command line's `--unit`: `um`, `mm`, `cm`, `m`, `in`, `ft`.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Unit::Micron => "um",
+            Unit::Millimetre => "mm",
+            Unit::Centimetre => "cm",
+            Unit::Metre => "m",
+            Unit::Inch => "in",
+            Unit::Foot => "ft",
+        }
+    }
+}
+
+impl fmt::Display for Unit {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.symbol())
+    }
+}
+
+/// What a writer needs beyond the meshes. `Default`: millimetres, nothing counted.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WriteOptions<'a> {
+    /// The unit of the coordinates (3MF and GLB record it; see [`Unit`]). Default: mm.
+    pub unit: Unit,
+    /// Where the bytes written so far are added up as they go (in batches), for a progress
+    /// bar on another thread; for 3MF, whose package is put together in memory, the bytes
+    /// of the model part as they are compressed. Default: none.
+    pub written: Option<&'a AtomicU64>,
 }
 
 /// The output format could not be chosen: the user's command line is at fault.
@@ -231,6 +324,12 @@ pub enum InvalidMesh {
         mesh: String,
         vertices: usize,
         normals: usize,
+    },
+    #[error("mesh `{mesh}`: a side names vertex {vertex}, but the mesh has {vertices} vertices")]
+    SideOutOfRange {
+        mesh: String,
+        vertex: u32,
+        vertices: usize,
     },
     #[error(
         "mesh `{mesh}`: triangle {triangle} uses vertex {index}, but the mesh has {vertices} vertices"
@@ -313,11 +412,21 @@ pub fn write_mesh_file(
     format: Format,
     meshes: &[NamedMesh],
 ) -> Result<(), WriteError> {
+    write_mesh_file_with(path, format, meshes, &WriteOptions::default())
+}
+
+/// [`write_mesh_file`] as `options` say.
+pub fn write_mesh_file_with(
+    path: &Path,
+    format: Format,
+    meshes: &[NamedMesh],
+    options: &WriteOptions,
+) -> Result<(), WriteError> {
     validate(meshes, format).map_err(|source| WriteError::InvalidMesh {
         path: path.to_path_buf(),
         source,
     })?;
-    write_atomic(path, |out| format.write_unchecked(out, meshes))
+    write_atomic(path, |out| format.write_unchecked(out, meshes, options))
 }
 
 /// Writes a file atomically: `write` fills a temporary file in `path`'s directory, which then
@@ -358,11 +467,21 @@ pub fn write_atomic(
         use std::os::unix::fs::PermissionsExt;
         Some(fs::Permissions::from_mode(0o666))
     });
-    if let Some(permissions) = permissions {
-        builder.permissions(permissions);
-    }
+    // Known to `remove_temporary_files` from before the file exists until it is renamed or
+    // removed (the guard drops last), so that a signal at any moment finds it.
+    let mut pending = Pending::new();
     let temporary = builder
-        .tempfile_in(&dir)
+        .make_in(&dir, |path| {
+            pending.set(path);
+            let mut options = fs::OpenOptions::new();
+            options.read(true).write(true).create_new(true);
+            #[cfg(unix)]
+            if let Some(permissions) = &permissions {
+                use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
+                options.mode(permissions.mode());
+            }
+            options.open(path)
+        })
         .map_err(|source| WriteError::CreateTemporary {
             path: user_path.to_path_buf(),
             dir: dir.clone(),
@@ -381,6 +500,68 @@ pub fn write_atomic(
         source: e.error,
     })?;
     Ok(())
+}
+
+/// The temporary files of the writes under way, for [`remove_temporary_files`].
+static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// A temporary file's path in [`PENDING`] while its write is under way; out when dropped.
+struct Pending(Option<PathBuf>);
+
+impl Pending {
+    fn new() -> Pending {
+        Pending(None)
+    }
+
+    /// Records `path` (replacing a name tried before, which was taken).
+    fn set(&mut self, path: &Path) {
+        let mut pending = PENDING.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(old) = self.0.take() {
+            pending.retain(|p| *p != old);
+        }
+        pending.push(path.to_path_buf());
+        self.0 = Some(path.to_path_buf());
+    }
+}
+
+impl Drop for Pending {
+    fn drop(&mut self) {
+        if let Some(path) = self.0.take() {
+            let mut pending = PENDING.lock().unwrap_or_else(|e| e.into_inner());
+            pending.retain(|p| *p != path);
+        }
+    }
+}
+
+/// Removes the temporary files of the writes under way (each output keeps its old contents
+/// or stays absent) and holds back new ones while the returned guard lives: a write that
+/// has not yet created its temporary file waits. For a handler of SIGINT and SIGTERM, which
+/// ends the process holding the guard, so that no write leaves a file behind: one under way
+/// fails or has its file removed (one that got as far as its rename has written the whole
+/// file), and none begins.
+pub fn remove_temporary_files() -> HeldBack {
+    let pending = PENDING.lock().unwrap_or_else(|e| e.into_inner());
+    let removed = pending
+        .iter()
+        .filter(|path| fs::remove_file(path).is_ok())
+        .count();
+    HeldBack {
+        _pending: pending,
+        removed,
+    }
+}
+
+/// What [`remove_temporary_files`] did; while it lives, no temporary file is created.
+pub struct HeldBack {
+    _pending: std::sync::MutexGuard<'static, Vec<PathBuf>>,
+    removed: usize,
+}
+
+impl HeldBack {
+    /// How many temporary files were removed.
+    pub fn removed(&self) -> usize {
+        self.removed
+    }
 }
 
 /// Writes to a special file in place: no temporary file, no rename, nothing to sync.
@@ -403,22 +584,88 @@ fn write_direct(
 }
 
 impl Format {
-    fn write_unchecked(self, out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
+    fn write_unchecked(
+        self,
+        out: &mut dyn Write,
+        meshes: &[NamedMesh],
+        options: &WriteOptions,
+    ) -> io::Result<()> {
+        if self == Format::ThreeMf {
+            // The package is put together in memory; its writer counts the model part.
+            return threemf::write(out, meshes, options);
+        }
+        let mut counted;
+        let out: &mut dyn Write = match options.written {
+            Some(written) => {
+                counted = Counted::new(out, written);
+                &mut counted
+            }
+            None => out,
+        };
         match self {
             Format::Obj => obj::write(out, meshes),
             Format::Stl => stl::write(out, meshes),
             Format::Ply => ply::write(out, meshes),
             Format::Off => off::write(out, meshes),
-            Format::Glb => glb::write(out, meshes),
-            Format::ThreeMf => threemf::write(out, meshes),
+            Format::Glb => glb::write(out, meshes, options.unit),
+            Format::ThreeMf => threemf::write(out, meshes, options),
             Format::Msh => msh::write(out, meshes),
             Format::Vtu => vtu::write(out, meshes),
         }
     }
 }
 
+/// A writer that adds the bytes passing through it to a shared counter, a batch at a time
+/// (an atomic add per 64 KiB, not per write: PLY writes a record at a time).
+struct Counted<'a> {
+    inner: &'a mut dyn Write,
+    counter: &'a AtomicU64,
+    pending: u64,
+}
+
+/// Bytes gathered before they are added to the counter.
+const COUNT_BATCH: u64 = 1 << 16;
+
+impl<'a> Counted<'a> {
+    fn new(inner: &'a mut dyn Write, counter: &'a AtomicU64) -> Counted<'a> {
+        Counted {
+            inner,
+            counter,
+            pending: 0,
+        }
+    }
+
+    fn add(&mut self) {
+        self.counter.fetch_add(self.pending, Ordering::Relaxed);
+        self.pending = 0;
+    }
+}
+
+impl Write for Counted<'_> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.pending += n as u64;
+        if self.pending >= COUNT_BATCH {
+            self.add();
+        }
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.add();
+        self.inner.flush()
+    }
+}
+
+impl Drop for Counted<'_> {
+    fn drop(&mut self) {
+        self.add();
+    }
+}
+
 /// Checks what every writer relies on: finite coordinates, indices inside the vertex list,
-/// and (for formats that store them) one finite normal per vertex.
+/// and (for formats that store them) one finite normal per vertex and sides that name
+/// vertices of their mesh with finite normals.
 pub fn validate(meshes: &[NamedMesh], format: Format) -> Result<(), InvalidMesh> {
     for named in meshes {
         let mesh = named.mesh;
@@ -457,6 +704,22 @@ pub fn validate(meshes: &[NamedMesh], format: Format) -> Result<(), InvalidMesh>
                     });
                 }
             }
+            for side in &mesh.sides {
+                if side.vertex as usize >= mesh.vertices.len() {
+                    return Err(InvalidMesh::SideOutOfRange {
+                        mesh: name(),
+                        vertex: side.vertex,
+                        vertices: mesh.vertices.len(),
+                    });
+                }
+                if !side.normal.is_finite() {
+                    return Err(InvalidMesh::NonFiniteNormal {
+                        mesh: name(),
+                        vertex: side.vertex,
+                        normal: side.normal.to_array(),
+                    });
+                }
+            }
         }
         for (t, tri) in mesh.triangles.iter().enumerate() {
             if let Some(&index) = tri.iter().find(|&&i| i as usize >= mesh.vertices.len()) {
@@ -475,7 +738,18 @@ pub fn validate(meshes: &[NamedMesh], format: Format) -> Result<(), InvalidMesh>
         _ => u64::from(u32::MAX),
     };
     let triangles: u64 = meshes.iter().map(|m| m.mesh.triangles.len() as u64).sum();
-    let vertices: u64 = meshes.iter().map(|m| m.mesh.vertices.len() as u64).sum();
+    // Formats with normals split the vertices on creases: at most one more vertex a side.
+    let split = |m: &NamedMesh| {
+        if format.stores_normals() {
+            m.mesh.sides.len() as u64
+        } else {
+            0
+        }
+    };
+    let vertices: u64 = meshes
+        .iter()
+        .map(|m| m.mesh.vertices.len() as u64 + split(m))
+        .sum();
     for (what, count) in [("triangles", triangles), ("vertices", vertices)] {
         if count > limit {
             return Err(InvalidMesh::TooLarge {
@@ -506,20 +780,54 @@ struct SharedPositions {
 
 impl SharedPositions {
     fn new(meshes: &[NamedMesh]) -> SharedPositions {
+        SharedPositions::build(meshes.iter().map(|m| (&m.mesh.vertices[..], None)))
+    }
+
+    /// The positions of meshes split at their sharp edges (`split`): a side vertex (one
+    /// piece's normal at a vertex on a crease) is merged only with a vertex of the same
+    /// position and normal, so that each face of the edge keeps its own; the other vertices
+    /// as [`SharedPositions::new`] merges them.
+    fn of_split(splits: &[split::Split]) -> SharedPositions {
+        SharedPositions::build(
+            splits
+                .iter()
+                .map(|s| (&s.vertices[..], Some((&s.normals[..], &s.side[..])))),
+        )
+    }
+
+    fn build<'a>(
+        meshes: impl Iterator<Item = (&'a [DVec3], Option<(&'a [DVec3], &'a [bool])>)>,
+    ) -> SharedPositions {
         let mut positions = Vec::new();
         let mut seen: HashMap<[u64; 3], u32, BitsHash> = HashMap::default();
+        // Side vertices, by position and normal; only meshes with sides have any.
+        let mut seen_sides: HashMap<[u64; 6], u32, BitsHash> = HashMap::default();
         let index = meshes
-            .iter()
-            .map(|m| {
-                m.mesh
-                    .vertices
+            .map(|(vertices, sides)| {
+                vertices
                     .iter()
-                    .map(|v| {
+                    .enumerate()
+                    .map(|(k, v)| {
                         let key = [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
-                        *seen.entry(key).or_insert_with(|| {
+                        let fresh = || {
                             positions.push(*v);
                             index_u32(positions.len() - 1)
-                        })
+                        };
+                        match sides {
+                            Some((normals, side)) if side.get(k).copied().unwrap_or(false) => {
+                                let n = normals[k];
+                                let key = [
+                                    key[0],
+                                    key[1],
+                                    key[2],
+                                    n.x.to_bits(),
+                                    n.y.to_bits(),
+                                    n.z.to_bits(),
+                                ];
+                                *seen_sides.entry(key).or_insert_with(fresh)
+                            }
+                            _ => *seen.entry(key).or_insert_with(fresh),
+                        }
                     })
                     .collect()
             })

@@ -1,13 +1,15 @@
 //! OBJ: named meshes → Wavefront OBJ text. Positions are shared across meshes (`v`,
 //! bit-identical positions written once), each followed by its normal: one `vn` per `v`, in
 //! the same order, so that readers that take normals as point data (meshio) find as many
-//! normals as points. Each mesh is `o NAME` and `g NAME` (trimesh splits on `o`, meshio on
+//! normals as points. At a sharp edge a position is one `v` per side, each with its piece's
+//! normal (`split`). Each mesh is `o NAME` and `g NAME` (trimesh splits on `o`, meshio on
 //! `g`) with faces `f v//v`, 1-based. Numbers in Rust's shortest round-trip form.
 
 use std::io::{self, Write};
 
 use glam::DVec3;
 
+use super::split::{Split, split};
 use super::text::{write_lines, xyz};
 use super::{Format, NamedMesh, SharedPositions, header_name};
 
@@ -17,8 +19,9 @@ pub fn write_obj(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
 }
 
 pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
-    let shared = SharedPositions::new(meshes);
-    let normals = shared_normals(meshes, &shared);
+    let splits: Vec<Split> = meshes.iter().map(|m| split(m.mesh)).collect();
+    let shared = SharedPositions::of_split(&splits);
+    let normals = shared_normals(&splits, &shared);
     let names: Vec<String> = meshes.iter().map(|m| header_name(m.name)).collect();
     writeln!(out, "# surfc: {}", names.join(", "))?;
     // All positions and normals first: an object may use positions first written for an
@@ -26,10 +29,10 @@ pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()>
     // same f64 (`2.0`, `1e-7`).
     write_lines(out, &shared.positions, |t, p| xyz(t, "v ", p.to_array()))?;
     write_lines(out, &normals, |t, n| xyz(t, "vn ", n.to_array()))?;
-    for ((named, index), name) in meshes.iter().zip(&shared.index).zip(&names) {
+    for ((mesh, index), name) in splits.iter().zip(&shared.index).zip(&names) {
         writeln!(out, "o {name}")?;
         writeln!(out, "g {name}")?;
-        write_lines(out, &named.mesh.triangles, |t, tri| {
+        write_lines(out, &mesh.triangles, |t, tri| {
             t.str("f");
             for &i in tri {
                 let v = u64::from(index[i as usize]) + 1;
@@ -48,12 +51,12 @@ pub(super) fn write(out: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()>
 /// (or all that use it agree bit for bit); where meshes of different surfaces meet on a
 /// shared polygon, the normalised sum of their normals (what a smooth-shading renderer would
 /// compute there), or the first mesh's normal if they cancel.
-fn shared_normals(meshes: &[NamedMesh], shared: &SharedPositions) -> Vec<DVec3> {
+fn shared_normals(meshes: &[Split], shared: &SharedPositions) -> Vec<DVec3> {
     let mut first: Vec<Option<DVec3>> = vec![None; shared.positions.len()];
     let mut sum = vec![DVec3::ZERO; shared.positions.len()];
     let mut differs = vec![false; shared.positions.len()];
-    for (named, index) in meshes.iter().zip(&shared.index) {
-        for (&k, &n) in index.iter().zip(&named.mesh.normals) {
+    for (mesh, index) in meshes.iter().zip(&shared.index) {
+        for (&k, &n) in index.iter().zip(mesh.normals.iter()) {
             let k = k as usize;
             match first[k] {
                 None => first[k] = Some(n),

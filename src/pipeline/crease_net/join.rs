@@ -3,7 +3,7 @@
 //! that the joined mesh is one surface and that every triangle of a crease-free component
 //! lies on one face.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use glam::DVec3;
 
@@ -65,7 +65,9 @@ pub(super) fn check_joined(mesh: &Mesh) -> Result<(), CreaseError> {
 /// The meshes as one, vertices with bit-identical positions merged (the crease vertices the
 /// pieces share), in order of first appearance.
 /// A vertex shared by pieces gets the normalised sum of their normals, which agrees with
-/// every triangle around it wherever the crease is not a fold (normals less than 180° apart).
+/// every triangle around it wherever the crease is not a fold (normals less than 180° apart),
+/// and, where the pieces' normals there differ, each of them as a side (`Mesh::sides`, the
+/// parts' own sides carried along), so that writers can keep the edge sharp.
 pub(crate) fn merge(parts: &[Mesh]) -> Mesh {
     merge_at(parts, None).0
 }
@@ -73,7 +75,8 @@ pub(crate) fn merge(parts: &[Mesh]) -> Mesh {
 /// `merge`, where given `only` the positions that may be shared: then only those go into a
 /// table (which stays in cache: the slabs of `pipeline::pieces` share only their cut
 /// polygons), and each vertex is looked up there rather than hashed into a table of all.
-/// Also returns which vertices of the result are among `only` (none without it).
+/// Also returns which vertices of the result are among `only` (none without it). Slabs of
+/// one smooth surface (`only` given) have no sides: none are recorded.
 pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<bool>) {
     let vertices: usize = parts.iter().map(|p| p.vertices.len()).sum();
     // Each position's id in the merged mesh, once it has one.
@@ -85,21 +88,46 @@ pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<boo
         vertices: Vec::with_capacity(vertices),
         normals: Vec::with_capacity(vertices),
         triangles: Vec::with_capacity(parts.iter().map(|p| p.triangles.len()).sum()),
+        sides: Vec::new(),
     };
     let mut among = Vec::with_capacity(if only.is_some() { vertices } else { 0 });
     let mut met_again = Vec::new();
+    // Sides (slabs of one smooth surface, `only` given, have none): the normals met at each
+    // vertex met again, where a part's vertex with sides of its own brings those rather than
+    // its summed normal; `sided` marks the vertices whose first part brought sides.
+    let record_sides = only.is_none();
+    let mut side_normals: HashMap<u32, Vec<DVec3>> = HashMap::new();
+    let mut sided: HashSet<u32> = HashSet::new();
     for part in parts {
+        let part_sided: HashSet<u32> = part.sides.iter().map(|s| s.vertex).collect();
         let ids: Vec<u32> = part
             .vertices
             .iter()
             .zip(&part.normals)
-            .map(|(v, n)| {
+            .enumerate()
+            .map(|(k, (v, n))| {
                 let fresh = out.vertices.len() as u32;
+                let has_sides = !part_sided.is_empty() && part_sided.contains(&(k as u32));
                 let slot = match only {
                     Some(_) => index.get_mut(&bits(*v)),
                     None => Some(index.entry(bits(*v)).or_insert(None)),
                 };
                 if let Some(&mut Some(id)) = slot {
+                    if record_sides {
+                        // When the vertex is first met again, the first normal met there is
+                        // still the sum's only term.
+                        let first = out.normals[id as usize];
+                        let met = side_normals.entry(id).or_insert_with(|| {
+                            if sided.contains(&id) {
+                                Vec::new()
+                            } else {
+                                vec![first]
+                            }
+                        });
+                        if !has_sides {
+                            met.push(*n);
+                        }
+                    }
                     out.normals[id as usize] += *n;
                     met_again.push(id);
                     return id;
@@ -110,12 +138,22 @@ pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<boo
                 if let Some(slot) = slot {
                     *slot = Some(fresh);
                 }
+                if has_sides {
+                    sided.insert(fresh);
+                }
                 out.vertices.push(*v);
                 // Summed from zero (a −0 component becomes +0).
                 out.normals.push(DVec3::ZERO + *n);
                 fresh
             })
             .collect();
+        if record_sides {
+            for side in &part.sides {
+                if let Some(&id) = ids.get(side.vertex as usize) {
+                    side_normals.entry(id).or_default().push(side.normal);
+                }
+            }
+        }
         out.triangles
             .extend(part.triangles.iter().map(|t| t.map(|k| ids[k as usize])));
     }
@@ -125,7 +163,32 @@ pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<boo
         let n = &mut out.normals[id as usize];
         *n = n.normalize_or(*n);
     }
+    out.sides = sides(side_normals);
     (out, among)
+}
+
+/// The sides of the vertices where different normals met, sorted by vertex, each normal
+/// once (compared by value: −0 and +0 are one), in the order they were met.
+fn sides(met: HashMap<u32, Vec<DVec3>>) -> Vec<crate::mesh::Side> {
+    let mut sides = Vec::new();
+    let mut vertices: Vec<u32> = met.keys().copied().collect();
+    vertices.sort_unstable();
+    for vertex in vertices {
+        let mut distinct: Vec<DVec3> = Vec::new();
+        for &n in &met[&vertex] {
+            if !distinct.contains(&n) {
+                distinct.push(n);
+            }
+        }
+        if distinct.len() > 1 {
+            sides.extend(
+                distinct
+                    .into_iter()
+                    .map(|normal| crate::mesh::Side { vertex, normal }),
+            );
+        }
+    }
+    sides
 }
 
 fn bits(p: DVec3) -> [u64; 3] {

@@ -40,6 +40,7 @@ use glam::DVec3;
 use super::components::{self, Marching, SearchError, SearchSettings};
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
+use crate::mesh::progress::Counts;
 use crate::surface::Surface;
 use crate::survey::faces::{FaceError, FaceSettings};
 use crate::survey::sizing::Sizing;
@@ -186,8 +187,10 @@ impl From<FaceError> for CreaseError {
 
 /// Meshes `creased` (f itself is `whole`, with its interval bound) inside the box as the
 /// module documentation says. With `fork` (fresh oracles of f), the smooth components are
-/// marched on the rayon pool as `components::mesh_components_forked` says.
-// The oracles, the marching, the box and three settings structs: each a caller's choice.
+/// marched on the rayon pool as `components::mesh_components_forked` says. `progress`, where
+/// given, counts the triangles of the pieces and components as they are marched.
+// The oracles, the marching, the box, three settings structs and the counts: each a
+// caller's choice.
 #[allow(clippy::too_many_arguments)]
 pub fn mesh_creased(
     creased: &mut Creased,
@@ -198,6 +201,7 @@ pub fn mesh_creased(
     march_settings: &MarchSettings,
     search: &SearchSettings,
     settings: &CreaseSettings,
+    progress: Option<&Counts>,
 ) -> Result<CreasedMesh, CreaseError> {
     let step = marching.step;
     if !(step.is_finite() && step > 0.0) {
@@ -301,9 +305,14 @@ pub fn mesh_creased(
             tolerance: marching.tolerance,
             uniform: marching.uniform,
         };
-        let marched =
-            march::march_verified(&mut t.c.piece(face), None, &input, &piece_settings, None)
-                .map_err(|source| CreaseError::March { at, source })?;
+        let marched = march::march_verified(
+            &mut t.c.piece(face),
+            None,
+            &input,
+            &piece_settings,
+            progress.map(|p| &p.triangles),
+        )
+        .map_err(|source| CreaseError::March { at, source })?;
         check_piece(t.c, face, &marched.mesh, settings.region * step)?;
         out.max_chord_error = out.max_chord_error.max(marched.max_chord_error);
         out.warnings.extend(marched.warnings);
@@ -324,6 +333,7 @@ pub fn mesh_creased(
         march_settings,
         search,
         &pieces,
+        progress,
     )?;
     check_smooth(
         t.c,
