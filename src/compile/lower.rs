@@ -222,9 +222,14 @@ impl<'p> Lowerer<'p> {
                 self.active_fns.pop();
                 self.call_spans.pop();
                 let n = n?;
-                if let (true, &[a, b, r]) = (crate::sema::solids::is_smooth_min(def), &key.1[..]) {
-                    self.smooth_mins.insert(n, [a, b, r]);
-                }
+                let n = match (crate::sema::solids::is_smooth_min(def), &key.1[..]) {
+                    (true, &[a, b, r]) => {
+                        self.smooth_mins.insert(n, [a, b, r]);
+                        // Faces the two operands share stay flat (`compile::flush`).
+                        super::flush::clip_flush(&mut self.graph, n, a, b)
+                    }
+                    _ => n,
+                };
                 self.calls.insert(key, n);
                 n
             }

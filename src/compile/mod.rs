@@ -3,6 +3,7 @@
 //! allocated by a linear scan, `regalloc`), verified before it runs, with a readable listing
 //! (`tape`). `docs/compiler.md` describes the whole pipeline and the opcode list.
 
+pub mod flush;
 pub mod ir;
 pub mod lower;
 pub mod ops;

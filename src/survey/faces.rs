@@ -70,7 +70,11 @@ pub enum Relation {
     Same,
     /// One sheet, opposite orientations (the faces two solids press together).
     Opposite,
-    /// They only touch: tangent sheets that part away from the point.
+    /// Tangent, on the same side, parting away from the point: the one hides the other
+    /// there (a smooth boolean that saturates onto a face, a ball touching a wall from
+    /// inside the solid), so they make no crease there.
+    Shadow,
+    /// Tangent with opposite sides, parting away: two solids touching.
     Touching,
 }
 
@@ -181,6 +185,11 @@ pub fn relate(
     if n == DVec3::ZERO {
         return Relation::Touching;
     }
+    let apart = if c.form(j, p).gradient.dot(gi) > 0.0 {
+        Relation::Shadow
+    } else {
+        Relation::Touching
+    };
     let (t1, t2) = tangent_frame(n);
     let mut orientation = 0.0;
     for r in [0.0, 0.2 * s.reach, s.reach] {
@@ -191,17 +200,17 @@ pub fn relate(
         };
         for &d in dirs {
             let Some(q) = onto(c, i, p + r * step * d, step) else {
-                return Relation::Touching;
+                return apart;
             };
             let (a, b) = (c.form(i, q), c.form(j, q));
             let (na, nb) = (a.gradient.length(), b.gradient.length());
             if !(na > 0.0 && nb > 0.0) {
-                return Relation::Touching;
+                return apart;
             }
-            let apart = b.value.abs() / nb;
+            let distance = b.value.abs() / nb;
             let sine = a.gradient.cross(b.gradient).length() / (na * nb);
-            if apart.is_nan() || apart > s.coincide * step || sine > 1e-7 {
-                return Relation::Touching;
+            if distance.is_nan() || distance > s.coincide * step || sine > 1e-7 {
+                return apart;
             }
             orientation += a.gradient.dot(b.gradient).signum();
         }
@@ -357,7 +366,10 @@ pub fn crossing(
             }
             match relate(c, face, other, p, scale, s) {
                 Relation::Same => c.unite(face, other),
-                _ => return Err(FaceError::Tangent { at: p, sine: 0.0 }),
+                Relation::Shadow => {}
+                Relation::Opposite | Relation::Touching => {
+                    return Err(FaceError::Tangent { at: p, sine: 0.0 });
+                }
             }
         }
         faces.push((face, dir));
@@ -457,7 +469,7 @@ pub fn junction(
                 }
                 match relate(c, a, b, v, scale, s) {
                     Relation::Same => c.unite(a, b),
-                    Relation::Opposite => {}
+                    Relation::Opposite | Relation::Shadow => {}
                     Relation::Touching => return Err(FaceError::Tangent { at: v, sine }),
                 }
                 continue;

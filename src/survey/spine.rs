@@ -769,9 +769,9 @@ impl Creased {
         let lo = DVec3::from(key.map(|c| c as f64)) * size - DVec3::splat(0.01 * size);
         let hi = lo + DVec3::splat(1.02 * size);
         let branches = &mut self.branches;
-        let (pruned, _) = self.spine.pruned(&mut |k| {
-            branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE)
-        });
+        let (pruned, _) = self
+            .spine
+            .pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
         let pruned = Arc::new(pruned);
         self.local.insert(key, pruned.clone());
         pruned

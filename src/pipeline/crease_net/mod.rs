@@ -305,15 +305,45 @@ pub fn mesh_creased(
             tolerance: marching.tolerance,
             uniform: marching.uniform,
         };
-        let marched = march::march_verified(
-            &mut t.c.piece(face),
-            None,
-            &input,
-            &piece_settings,
-            progress.map(|p| &p.triangles),
-        )
-        .map_err(|source| CreaseError::March { at, source })?;
-        check_piece(t.c, face, &marched.mesh, settings.region * step)?;
+        // The face's forms whose zero sets hold its polygons, its first form first: where a
+        // form is another's shadow over part of the face (a smooth boolean saturating onto
+        // it), the one that is the face throughout is the one whose piece stays on it.
+        let region = settings.region * step;
+        let mut forms: Vec<usize> = Vec::new();
+        for k in 0..t.c.form_count() {
+            if t.c.class(k) != face {
+                continue;
+            }
+            let holds = loops.iter().flatten().all(|&v| {
+                let l = t.c.form(k, v);
+                l.value.abs() <= region * l.gradient.length()
+            });
+            if holds {
+                forms.push(k);
+            }
+        }
+        if forms.is_empty() {
+            forms.push(face);
+        }
+        let mut tried: Result<march::Marched, CreaseError> = Err(CreaseError::Chain { at });
+        for &form in &forms {
+            tried = march::march_verified(
+                &mut t.c.piece(form),
+                None,
+                &input,
+                &piece_settings,
+                progress.map(|p| &p.triangles),
+            )
+            .map_err(|source| CreaseError::March { at, source })
+            .and_then(|marched| {
+                check_piece(t.c, form, &marched.mesh, region)?;
+                Ok(marched)
+            });
+            if tried.is_ok() {
+                break;
+            }
+        }
+        let marched = tried?;
         out.max_chord_error = out.max_chord_error.max(marched.max_chord_error);
         out.warnings.extend(marched.warnings);
         limit = limit.map(|l| l.saturating_sub(marched.mesh.triangles.len() as u64).max(1));

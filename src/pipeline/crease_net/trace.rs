@@ -52,7 +52,8 @@ pub(super) struct Tracer<'a> {
     pub traced: Vec<Traced>,
     /// Tracing points with their forms, by cell of side `covered · step`.
     near: HashMap<[i64; 3], Vec<(DVec3, usize, usize)>>,
-    /// Pairs of forms found to be one sheet with opposite sides (smaller id first).
+    /// Pairs of forms found to be one sheet with opposite sides, or one the other's shadow
+    /// (`faces::Relation`), smaller id first: never a third face of a crease of the other.
     opposite: HashSet<(usize, usize)>,
 }
 
@@ -209,7 +210,8 @@ impl<'a> Tracer<'a> {
                 if sine(gk, gf) <= 1e-7 {
                     match faces::relate(self.c, f, k, q, &scale, &fs) {
                         faces::Relation::Same => self.c.unite(f, k),
-                        faces::Relation::Opposite => {
+                        // A shadow or the other side of a face is no third face.
+                        faces::Relation::Opposite | faces::Relation::Shadow => {
                             self.opposite.insert((f.min(k), f.max(k)));
                         }
                         faces::Relation::Touching => continue,
@@ -281,7 +283,7 @@ impl<'a> Tracer<'a> {
                         self.c.unite(i, j);
                         return Ok(None);
                     }
-                    faces::Relation::Opposite => return Ok(None),
+                    faces::Relation::Opposite | faces::Relation::Shadow => return Ok(None),
                     faces::Relation::Touching => {}
                 }
             }
