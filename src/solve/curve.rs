@@ -468,15 +468,29 @@ impl<'a> ArcLength<'a> {
     pub fn resample(
         &self,
         n: usize,
+        correct: impl FnMut(DVec3, DVec3) -> Option<DVec3>,
+    ) -> Result<Vec<DVec3>, DVec3> {
+        let total = self.total();
+        self.resample_at((1..n).map(|k| total * k as f64 / n as f64), correct)
+    }
+
+    /// The arc length from the first vertex to fine vertex i.
+    pub fn at(&self, i: usize) -> f64 {
+        self.cumulative[i.min(self.cumulative.len() - 1)]
+    }
+
+    /// As [`ArcLength::resample`], with the inner points at the given increasing arc lengths
+    /// (strictly between 0 and the total).
+    pub fn resample_at(
+        &self,
+        arcs: impl Iterator<Item = f64>,
         mut correct: impl FnMut(DVec3, DVec3) -> Option<DVec3>,
     ) -> Result<Vec<DVec3>, DVec3> {
         let (fine, m) = (self.fine, self.fine.len());
         let segments = self.cumulative.len() - 1;
-        let total = self.total();
-        let mut out = Vec::with_capacity(n + 1);
+        let mut out = Vec::with_capacity(arcs.size_hint().0 + 2);
         out.push(fine[0]);
-        for k in 1..n {
-            let s = total * k as f64 / n as f64;
+        for s in arcs {
             let i = self
                 .cumulative
                 .partition_point(|&c| c <= s)

@@ -726,8 +726,11 @@ impl<'a> Tracer<'a> {
         None
     }
 
-    /// The crease's polygon: n segments of equal arc length at most the local step of both
-    /// pieces (and above the marcher's shortest polygon edge), ends kept exactly.
+    /// The crease's polygon: vertices spaced by the local step of both pieces along it,
+    /// graded as the marcher grades (neighbouring edges differ little, so the triangles on
+    /// either side stay near-equilateral where the step changes: a fillet's fine spacing does
+    /// not run on along the straight edges it joins), at least the marcher's shortest
+    /// polygon edge; the ends kept exactly.
     pub fn resample(
         &mut self,
         tr: &Traced,
@@ -743,10 +746,17 @@ impl<'a> Tracer<'a> {
             length: 0.0,
         })?;
         let total = line.total();
-        // The local step along the crease, on both pieces, every step or so.
-        let mut h = self.step;
+        // The local step along the crease, on both pieces, every step or so (and at the
+        // ends): (arc length, h).
+        let floor = min_edge / 0.8;
         let every = ((self.step / (self.s.trace * self.step)).round() as usize).max(1);
-        for k in (0..m).step_by(every) {
+        let mut samples: Vec<usize> = (0..m).step_by(every).collect();
+        if samples.last() != Some(&(m - 1)) {
+            samples.push(m - 1);
+        }
+        let mut field: Vec<(f64, f64)> = Vec::with_capacity(samples.len() + 1);
+        for &k in &samples {
+            let mut h = self.step;
             for f in [i, j] {
                 let vg = self.c.form(f, fine[k]);
                 let normal = vg.gradient.normalize_or_zero();
@@ -762,9 +772,37 @@ impl<'a> Tracer<'a> {
                 };
                 h = h.min(sizing.size(&mut self.c.piece(f), &sp, None).h);
             }
+            field.push((line.at(k), h.max(floor)));
         }
-        let h = h.max(min_edge / 0.8);
-        let n = ((total / h).ceil() as usize).max(if closed { 3 } else { 1 });
+        if closed {
+            // Round the loop: the first sample again at the end.
+            field.push((total, field[0].1));
+        }
+        // Graded both ways: h(s) ≤ h(s') + g·|s − s'|.
+        let g = sizing.settings().grading;
+        for k in 1..field.len() {
+            let (s0, h0) = field[k - 1];
+            field[k].1 = field[k].1.min(h0 + g * (field[k].0 - s0));
+        }
+        for k in (0..field.len().saturating_sub(1)).rev() {
+            let (s1, h1) = field[k + 1];
+            field[k].1 = field[k].1.min(h1 + g * (s1 - field[k].0));
+        }
+        if closed {
+            let first = field[0].1.min(field[field.len() - 1].1);
+            field[0].1 = first;
+            let last = field.len() - 1;
+            field[last].1 = first;
+        }
+        // Vertices at equal steps of ∫ ds / h (h linear between samples).
+        let mut count = vec![0.0; field.len()];
+        for k in 1..field.len() {
+            let (s0, h0) = field[k - 1];
+            let (s1, h1) = field[k];
+            count[k] = count[k - 1] + (s1 - s0) * 0.5 * (1.0 / h0 + 1.0 / h1);
+        }
+        let whole = count[count.len() - 1];
+        let n = (whole.ceil() as usize).max(if closed { 3 } else { 1 });
         // A crease shorter than the marcher's shortest polygon edge between two corners is
         // one edge (the pieces march with that limit lowered to `shortest`); shorter still,
         // the corners nearly coincide and the crease is refused.
@@ -774,7 +812,20 @@ impl<'a> Tracer<'a> {
                 length: total,
             });
         }
-        line.resample(n, |y, dir| self.correct(i, j, y, y, dir))
+        let arcs = (1..n).map(|v| {
+            let target = whole * v as f64 / n as f64;
+            let k = count
+                .partition_point(|&c| c < target)
+                .clamp(1, count.len() - 1);
+            let (c0, c1) = (count[k - 1], count[k]);
+            let w = if c1 > c0 {
+                (target - c0) / (c1 - c0)
+            } else {
+                0.0
+            };
+            field[k - 1].0 + w * (field[k].0 - field[k - 1].0)
+        });
+        line.resample_at(arcs, |y, dir| self.correct(i, j, y, y, dir))
             .map_err(|at| CreaseError::Lost { at })
     }
 
