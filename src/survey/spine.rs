@@ -747,7 +747,7 @@ impl Creased {
     }
 
     /// Prunes the spine over cells of side `size` for the point queries that follow (`whole`,
-    /// `active`): exact, since a choice is pruned only where the bounds decide it throughout
+    /// `active`; the crease net takes four steps): exact, since a choice is pruned only where the bounds decide it throughout
     /// the cell. Not for a spine with selectors, whose terms the seams refer to.
     pub fn localize(&mut self, size: f64) {
         if !self.enumerated && size.is_finite() && size > 0.0 {

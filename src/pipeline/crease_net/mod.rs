@@ -211,7 +211,7 @@ pub fn mesh_creased(
     if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
         return Err(CreaseError::InvalidBox { lo, hi });
     }
-    creased.localize(step);
+    creased.localize(4.0 * step);
     let mut t = Tracer::new(creased, step, bbox, *settings);
     let trace = crate::trace::enabled();
     let cells = t.cells(whole)?;
