@@ -83,6 +83,7 @@ pub const CODES: &[(&str, &str)] = &[
     ),
     ("E0603", "a surface too large after inlining its functions"),
     ("E0604", "`dist` nested deeper than the limit"),
+    ("E0605", "a mesh block whose box holds no surface"),
     (
         "E0701",
         "`-D NAME=VALUE` for a name that is no constant of the file",
@@ -782,6 +783,67 @@ pub fn mesh_failed(name: &str, span: Span, reason: &str, help: Option<&str>) -> 
         .primary(span, "this mesh block")
         .note(reason.to_string())
         .maybe_help(help.map(str::to_string))
+}
+
+/// The range of f seen over a mesh block's box: an interval bound, and the smallest and
+/// largest values sampled on a grid (with the number of samples, and of those where f is
+/// not a number).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Range {
+    pub bound: Option<(f64, f64)>,
+    pub sampled: Option<(f64, f64)>,
+    pub samples: usize,
+    pub undefined: usize,
+}
+
+/// A mesh block with a `box` (and no start or front) in which no surface was found: nothing
+/// to mesh is an error, not an empty file. Says what f does over the box; `found` are the
+/// search's warnings (components smaller than the step that were not meshed).
+pub fn empty_box(
+    name: &str,
+    span: Span,
+    (lo, hi): ([f64; 3], [f64; 3]),
+    range: Range,
+    found: &[String],
+) -> Diagnostic {
+    let point = |p: [f64; 3]| format!("({}, {}, {})", number(p[0]), number(p[1]), number(p[2]));
+    // Six significant digits: an outward-rounded bound printed in full is noise.
+    let short = |v: f64| number(format!("{v:.5e}").parse().unwrap_or(v));
+    let interval = |(a, b): (f64, f64)| format!("[{}, {}]", short(a), short(b));
+    let mut seen = Vec::new();
+    if let Some(b) = range.bound {
+        seen.push(format!("within {} by interval arithmetic", interval(b)));
+    }
+    if let Some(s) = range.sampled {
+        seen.push(format!(
+            "over {} at {} points sampled on a grid",
+            interval(s),
+            range.samples
+        ));
+    }
+    if range.undefined > 0 {
+        seen.push(format!("not a number at {} of them", range.undefined));
+    }
+    let seen = if seen.is_empty() {
+        "f could not be evaluated there".to_string()
+    } else {
+        format!("f ranges {}", seen.join(", and "))
+    };
+    let what = match (found.is_empty(), range.sampled) {
+        (true, Some(s)) => format!(
+            "no surface was found in its box, where f ranges over {}",
+            interval(s)
+        ),
+        (true, None) => "no surface was found in its box".to_string(),
+        (false, _) => "nothing in its box could be meshed".to_string(),
+    };
+    let mut d = Diagnostic::error("E0605", format!("mesh `{name}`: {what}"))
+        .primary(span, "this mesh block")
+        .note(format!("the box {} .. {}: {seen}", point(lo), point(hi)));
+    for f in found {
+        d = d.note(f.clone());
+    }
+    d.help("the surface is where f changes sign: move or widen the `box` to where it does, or check the formula (a constant's sign, a missing term)")
 }
 
 /// A mesh block whose surface or curves could not be built (a curve that cannot be traced,

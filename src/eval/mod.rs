@@ -351,6 +351,11 @@ impl Vm {
         }
     }
 
+    /// The first fault of a `dist` child (a foot point not found), if any.
+    pub fn fault(&self) -> Option<crate::values::Fault> {
+        self.children.iter().find_map(|c| c.fault())
+    }
+
     /// Does the tape call `dist` children? Their foot-point searches start warm from the last
     /// query, so what they give may depend on the order of the points asked.
     pub fn has_children(&self) -> bool {

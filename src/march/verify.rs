@@ -8,11 +8,17 @@
 //!
 //! Input: the marcher's mesh with its per-vertex facts. Output: the largest chord error and
 //! every flaw found, each with a place and the local step there (where to refine).
+//!
+//! [`uncovered`] compares two meshes of one surface: whether every vertex of one lies near
+//! the other (a uniform-step mesh against the local step's, `march::march_verified`).
 
 use glam::DVec3;
 
+use std::collections::HashMap;
+
 use super::marcher::Triangulation;
-use crate::mesh::check::intersecting_pairs;
+use crate::mesh::Mesh;
+use crate::mesh::check::{closest_on_triangle, intersecting_pairs};
 use crate::mesh::edges::Edges;
 use crate::solve::surface_point;
 use crate::solve::tolerance::SurfacePointTolerance;
@@ -330,6 +336,66 @@ fn chord_error(
     }
 }
 
+/// Vertices of `reference` farther than `reach` from every triangle of `mesh`: how many, and
+/// the farthest of the first `UNCOVERED_MEASURED` of them with its distance; None when
+/// every vertex is within `reach`. Triangles are hashed into cells of side `reach` (each
+/// into the cells its box grown by `reach` meets), so a vertex looks into its own cell only.
+pub(super) fn uncovered(reference: &Mesh, mesh: &Mesh, reach: f64) -> Option<(DVec3, f64, usize)> {
+    let cell = |p: DVec3| (p / reach).floor().to_array().map(|c| c as i64);
+    let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let [a, b, c] = tri.map(|i| mesh.vertices[i as usize]);
+        let (lo, hi) = (cell(a.min(b).min(c) - reach), cell(a.max(b).max(c) + reach));
+        // A triangle longer than the search is ever made of (a degenerate input) is left
+        // out rather than hashed into millions of cells: its vertices' cells still see it.
+        if (0..3).any(|k| hi[k] - lo[k] > UNCOVERED_MAX_CELLS) {
+            for p in [a, b, c] {
+                cells.entry(cell(p)).or_default().push(t as u32);
+            }
+            continue;
+        }
+        for i in lo[0]..=hi[0] {
+            for j in lo[1]..=hi[1] {
+                for k in lo[2]..=hi[2] {
+                    cells.entry([i, j, k]).or_default().push(t as u32);
+                }
+            }
+        }
+    }
+    let distance = |p: DVec3, ts: &mut dyn Iterator<Item = u32>| {
+        ts.map(|t| {
+            let [a, b, c] = mesh.triangles[t as usize].map(|i| mesh.vertices[i as usize]);
+            (closest_on_triangle(p, a, b, c) - p).length()
+        })
+        .fold(f64::INFINITY, f64::min)
+    };
+    let mut worst: Option<(DVec3, f64)> = None;
+    let mut count = 0;
+    for &p in &reference.vertices {
+        let near = cells
+            .get(&cell(p))
+            .map_or(f64::INFINITY, |ts| distance(p, &mut ts.iter().copied()));
+        if near <= reach {
+            continue;
+        }
+        count += 1;
+        if count > UNCOVERED_MEASURED {
+            continue;
+        }
+        // How far it is, over every triangle.
+        let d = distance(p, &mut (0..mesh.triangles.len() as u32));
+        if worst.is_none_or(|(_, w)| d > w) {
+            worst = Some((p, d));
+        }
+    }
+    worst.map(|(p, d)| (p, d, count))
+}
+
+/// Cells along an axis a triangle may be hashed into in [`uncovered`].
+const UNCOVERED_MAX_CELLS: i64 = 64;
+/// Vertices [`uncovered`] measures the distance of (each against every triangle).
+const UNCOVERED_MEASURED: usize = 64;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -397,5 +463,30 @@ mod tests {
                 DVec3::new(a.cos(), a.sin(), 0.0)
             });
         assert!(open[0].at.distance(chord_middle) < 1e-12, "{:?}", open[0]);
+    }
+
+    /// `uncovered`: a unit square of two triangles covers the points above it within the
+    /// reach, not those beyond it nor a point off its side; the farthest is reported.
+    #[test]
+    fn uncovered_finds_the_points_far_from_the_mesh() {
+        let square = Mesh {
+            vertices: vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+            ..Mesh::default()
+        };
+        let points = |ps: &[DVec3]| Mesh {
+            vertices: ps.to_vec(),
+            ..Mesh::default()
+        };
+        let near = points(&[DVec3::new(0.5, 0.5, 0.05), DVec3::new(1.04, 0.5, 0.0)]);
+        assert_eq!(uncovered(&near, &square, 0.1), None);
+        let far = points(&[
+            DVec3::new(0.5, 0.5, 0.05),
+            DVec3::new(0.2, 0.3, 0.5),
+            DVec3::new(2.0, 0.5, 0.0),
+        ]);
+        let (p, d, count) = uncovered(&far, &square, 0.1).expect("two far points");
+        assert_eq!((p, count), (DVec3::new(2.0, 0.5, 0.0), 2));
+        assert!((d - 1.0).abs() < 1e-15, "{d}");
     }
 }

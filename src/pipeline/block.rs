@@ -181,6 +181,9 @@ fn mesh_block(
         def.bounds.is_empty(),
     ) {
         let out = creases::mesh(c, &mut surface, &fork, def, bbox, progress)?;
+        if out.mesh.triangles.is_empty() && def.start.is_none() {
+            return Err(nothing_in_box(def, &mut surface, bbox, &out.warnings));
+        }
         let counts = creases::counts(&out);
         let mut meshed = finish(
             program,
@@ -259,6 +262,9 @@ fn mesh_block(
                 SearchError::March { source, .. } => {
                     messages::mesh_failed(&def.name, def.span, &e.to_string(), march_help(source))
                 }
+                SearchError::Fault { .. } => {
+                    messages::mesh_failed(&def.name, def.span, &e.to_string(), Some(FAULT_HELP))
+                }
                 SearchError::CellBudget { .. } => messages::mesh_failed(
                     &def.name,
                     def.span,
@@ -269,6 +275,9 @@ fn mesh_block(
             })?;
             warnings.extend(found.warnings.iter().map(ToString::to_string));
             warnings.extend(found.march_warnings);
+            if found.mesh.triangles.is_empty() {
+                return Err(nothing_in_box(def, &mut surface, bbox, &warnings));
+            }
             return Ok(finish(
                 program,
                 source,
@@ -330,6 +339,56 @@ fn mesh_block(
     Ok(meshed)
 }
 
+/// Samples per axis of the grid over an empty box whose values `nothing_in_box` reports.
+const EMPTY_BOX_SAMPLES: usize = 17;
+
+/// The error of a block whose box held nothing to mesh (E0605), with the range of f over the
+/// box: its interval bound and the values on a grid of `EMPTY_BOX_SAMPLES`³ points.
+fn nothing_in_box(
+    def: &MeshDef,
+    surface: &mut CompiledSurface,
+    (lo, hi): (DVec3, DVec3),
+    warnings: &[String],
+) -> Diagnostic {
+    use crate::surface::Surface;
+    let bound = surface
+        .bound(lo, hi)
+        .filter(|b| !b.is_empty())
+        .map(|b| (b.lo, b.hi));
+    let n = EMPTY_BOX_SAMPLES;
+    let mut sampled: Option<(f64, f64)> = None;
+    let mut undefined = 0;
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                let t = DVec3::new(i as f64, j as f64, k as f64) / (n - 1) as f64;
+                let v = surface.value(lo + (hi - lo) * t);
+                if v.is_nan() {
+                    undefined += 1;
+                    continue;
+                }
+                sampled = Some(sampled.map_or((v, v), |(a, b)| (a.min(v), b.max(v))));
+            }
+        }
+    }
+    let range = messages::Range {
+        bound,
+        sampled,
+        samples: n * n * n,
+        undefined,
+    };
+    messages::empty_box(
+        &def.name,
+        def.span,
+        (lo.to_array(), hi.to_array()),
+        range,
+        warnings,
+    )
+}
+
+/// What the user may change where a `dist` found no foot point.
+const FAULT_HELP: &str = "`dist` and `offset` need the nearest point of their surface at every point the mesh asks about; a sharp edge or corner inside a function (`exp`, `sin`, a product) is not seen as one: write solids with `box`, the booleans, `min`, `max` and `abs` outside other functions (docs/implicitization.md), or keep the `box` away from that place";
+
 /// What the user may change when no surface point is found near `start`.
 const START_HELP: &str = "move `start` nearer the surface, or give the mesh a `box` and no `start` to mesh every component in it";
 
@@ -390,6 +449,10 @@ fn march_help(e: &MarchError) -> Option<&'static str> {
         }
         MarchError::NewPoint { .. } | MarchError::Stalled { .. } => {
             "a smaller `step` may get past small features or a singular point; a `box` can keep the mesh away from it"
+        }
+        MarchError::Fault { .. } => FAULT_HELP,
+        MarchError::UniformMisses { .. } | MarchError::UniformTopology { .. } => {
+            "`uniform: true` keeps the step everywhere: a smaller `step` resolves the feature; without `uniform` the local step refines there"
         }
         MarchError::HiddenCrease { .. } => {
             "creases are traced where `min`, `max`, `abs` or a sharp boolean or primitive is reached from the outside of the formula through sums, constant factors and smooth booleans; one inside another function (`exp`, `sin`, a product) hides its edges: keep sharp parts outside such functions, or round the edge with a smooth boolean (docs/creases.md)"

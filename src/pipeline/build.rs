@@ -10,13 +10,19 @@ use glam::DVec3;
 use crate::compile::{self, CompileError};
 use crate::diag::{Diagnostic, messages};
 use crate::eval::Engine;
+use crate::eval::Interval;
 use crate::march::MarchSettings;
 use crate::sema::program::{CurveId, CurveKind, Program, SurfaceRef};
 use crate::solve::curve::{self, CurveError, Polygon};
-use crate::solve::tolerance::{FootTolerance, PatchFootTolerance, SurfacePointTolerance};
+use crate::solve::solid::Pieces;
+use crate::solve::tolerance::{
+    FootTolerance, PatchFootTolerance, SolidFootTolerance, SurfacePointTolerance,
+};
 use crate::span::Span;
 use crate::surface::compiled::{self, CompiledSurface};
-use crate::surface::{ImplicitDist, PatchDist, Surface};
+use crate::surface::{Fault, ImplicitDist, PatchDist, SolidDist, Surface, ValueGrad};
+use crate::survey::spine::{Form, MAX_FORMS};
+use crate::values::interval;
 
 /// Why a surface or curve could not be built.
 #[derive(Debug, thiserror::Error)]
@@ -131,13 +137,53 @@ impl<'p> Builder<'p> {
                     ..PatchFootTolerance::default()
                 },
             )),
-            other => Box::new(ImplicitDist::with_tolerance(
-                Box::new(self.surface_in(other, scale, outer)?),
-                foot,
-            )),
+            // A surface with creases (a solid): the nearest point may be on a face, a crease
+            // or a corner (`solve::solid`).
+            other => match self.spine_pieces(other, scale, outer)? {
+                Some(pieces) => Box::new(SolidDist::with_tolerance(
+                    Box::new(pieces),
+                    SolidFootTolerance {
+                        foot,
+                        ..SolidFootTolerance::default()
+                    },
+                )),
+                None => Box::new(ImplicitDist::with_tolerance(
+                    Box::new(self.surface_in(other, scale, outer)?),
+                    foot,
+                )),
+            },
         };
         outer.pop();
         Ok(child)
+    }
+
+    /// The forms of a surface with creases as `solve::solid` reads them, or None when it has
+    /// no spine (or more forms than `MAX_FORMS`: then its distance is the smooth one's, and
+    /// a sharp edge it meets is refused where the mesh needs it).
+    fn spine_pieces(
+        &self,
+        r: &SurfaceRef,
+        scale: f64,
+        outer: &mut Vec<String>,
+    ) -> Result<Option<SpinePieces>, CompileError> {
+        let found = compiled::compile_spine(self.program, r, &mut |target| {
+            self.dist_child(target, scale, outer)
+        })?;
+        let Some((spine, branches)) = found else {
+            return Ok(None);
+        };
+        let Ok(forms) = spine.forms(MAX_FORMS) else {
+            return Ok(None);
+        };
+        let whole = self.surface_in(r, scale, outer)?;
+        let branches = branches
+            .into_iter()
+            .map(|mut b| {
+                b.set_engine(self.engine);
+                Box::new(b) as Box<dyn Surface>
+            })
+            .collect();
+        Ok(Some(SpinePieces::new(whole, forms, branches)))
     }
 
     /// The polygon of curve `id` sampled at `step` (clipped by `bbox` where the curve is
@@ -228,6 +274,143 @@ impl<'p> Builder<'p> {
     }
 }
 
+/// A surface with creases as the foot points of `solve::solid` read it: f's own tape, its
+/// forms (the smooth pieces, `survey::spine`) and the compiled branches. A form is evaluated
+/// from the branches it uses alone.
+struct SpinePieces {
+    whole: CompiledSurface,
+    forms: Vec<Form>,
+    branches: Vec<Box<dyn Surface>>,
+    /// The branches each form uses (a nonzero coefficient), with the coefficient.
+    uses: Vec<Vec<(usize, f64)>>,
+    /// Each branch's bound over the box `bounds_of` (its ends' bits), once computed.
+    bounds: Vec<Option<Option<Interval>>>,
+    bounds_of: Option<[u64; 6]>,
+    /// Whether each form is affine: every branch it uses is (its interval partials over a
+    /// box of ±`AFFINE_REACH` are points).
+    affine_forms: Vec<bool>,
+}
+
+/// The half-width of the box over which a branch's interval partials decide whether it is
+/// affine (a product of two coordinates has partials that are no points over it; the
+/// partials of an affine tape are points over any box, up to their outward rounding).
+const AFFINE_REACH: f64 = 1e6;
+/// Partials whose interval over that box is this narrow, relative to their size, are points
+/// widened by rounding (a few ulps a constant factor). A nonlinear term that passes has a
+/// curvature below 1e-18 over the box: the planes' closed forms are exact to rounding there.
+const AFFINE_WIDTH: f64 = 1e-12;
+
+impl SpinePieces {
+    fn new(whole: CompiledSurface, forms: Vec<Form>, mut branches: Vec<Box<dyn Surface>>) -> Self {
+        let n = branches.len();
+        let reach = DVec3::splat(AFFINE_REACH);
+        let affine: Vec<bool> = branches
+            .iter_mut()
+            .map(|b| {
+                b.bound_gradient(-reach, reach, [true; 3]).is_some_and(|g| {
+                    g.defined
+                        && g.d.iter().all(|i| {
+                            i.lo.is_finite()
+                                && i.hi.is_finite()
+                                && i.hi - i.lo <= AFFINE_WIDTH * i.lo.abs().max(i.hi.abs())
+                        })
+                })
+            })
+            .collect();
+        let uses: Vec<Vec<(usize, f64)>> = forms.iter().map(|f| f.terms.clone()).collect();
+        let affine_forms = uses
+            .iter()
+            .map(|u: &Vec<(usize, f64)>| u.iter().all(|&(k, _)| affine[k]))
+            .collect();
+        SpinePieces {
+            whole,
+            forms,
+            branches,
+            uses,
+            bounds: vec![None; n],
+            bounds_of: None,
+            affine_forms,
+        }
+    }
+
+    /// Form i's constant term.
+    fn constant(&self, i: usize) -> f64 {
+        self.forms[i].constant
+    }
+}
+
+impl Pieces for SpinePieces {
+    fn count(&self) -> usize {
+        self.forms.len()
+    }
+
+    fn whole(&mut self, p: DVec3) -> ValueGrad {
+        self.whole.value_gradient(p)
+    }
+
+    fn whole_value(&mut self, p: DVec3) -> f64 {
+        self.whole.value(p)
+    }
+
+    fn form_values(&mut self, p: DVec3, values: &mut Vec<f64>) {
+        let branches: Vec<f64> = self.branches.iter_mut().map(|b| b.value(p)).collect();
+        values.clear();
+        values.extend(self.forms.iter().map(|f| f.value(&branches)));
+    }
+
+    fn form(&mut self, i: usize, p: DVec3) -> ValueGrad {
+        let mut out = ValueGrad {
+            value: self.constant(i),
+            gradient: DVec3::ZERO,
+        };
+        for &(k, c) in &self.uses[i] {
+            let b = self.branches[k].value_gradient(p);
+            out.value += c * b.value;
+            out.gradient += c * b.gradient;
+        }
+        out
+    }
+
+    fn form_value(&mut self, i: usize, p: DVec3) -> f64 {
+        let mut v = self.constant(i);
+        for &(k, c) in &self.uses[i] {
+            v += c * self.branches[k].value(p);
+        }
+        v
+    }
+
+    fn is_affine(&self, i: usize) -> bool {
+        self.affine_forms[i]
+    }
+
+    fn fault(&self) -> Option<Fault> {
+        self.whole
+            .fault()
+            .or_else(|| self.branches.iter().find_map(|b| b.fault()))
+    }
+
+    fn form_bound(&mut self, i: usize, lo: DVec3, hi: DVec3) -> Option<Interval> {
+        let key = [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z].map(f64::to_bits);
+        if self.bounds_of != Some(key) {
+            self.bounds_of = Some(key);
+            self.bounds.iter_mut().for_each(|b| *b = None);
+        }
+        let mut acc = Interval::point(self.constant(i));
+        for &(k, c) in &self.uses[i] {
+            let b = match self.bounds[k] {
+                Some(b) => b,
+                None => {
+                    let b = self.branches[k].bound(lo, hi);
+                    self.bounds[k] = Some(b);
+                    b
+                }
+            }?;
+            acc = interval::add(acc, interval::mul(b, Interval::point(c)));
+        }
+        Some(acc)
+    }
+}
+
 /// The error a compile failure comes down to, through the `dist` children it was wrapped in,
 /// with the span of the innermost `dist` call that led there (if any).
 pub(crate) fn innermost(e: &CompileError) -> (&CompileError, Option<Span>) {
@@ -272,5 +455,37 @@ pub fn march_settings(def: &crate::sema::program::MeshDef) -> MarchSettings {
     MarchSettings {
         quality_ratio: def.radius_ratio.unwrap_or(defaults.quality_ratio),
         ..defaults
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The forms `solve::solid` gets for `dist(s)`: a turned box's six faces are planes (its
+    /// closed forms, no global phase), a ball's are not.
+    fn pieces_of(source: &str) -> SpinePieces {
+        let (_, checked, diags) = crate::pipeline::load::analyse(source);
+        let Some((_, program)) = checked else {
+            panic!("{diags:?}");
+        };
+        let builder = Builder::new(&program, Engine::default());
+        let s = SurfaceRef::Surface(crate::sema::program::SurfaceId(0));
+        match builder.spine_pieces(&s, 1.0, &mut Vec::new()) {
+            Ok(Some(p)) => p,
+            _ => panic!("no spine"),
+        }
+    }
+
+    #[test]
+    fn planes_are_known_as_affine() {
+        let turned = pieces_of(
+            "surface s = rotate(box((-1, -1, -1), (1, 2, 3)), axis: (1, 2, 3), angle: 0.7);\n",
+        );
+        assert_eq!(turned.count(), 6);
+        assert!((0..6).all(|i| turned.is_affine(i)));
+        let balls = pieces_of("surface s = union(sphere(1), translate(sphere(1), (1, 0, 0)));\n");
+        assert_eq!(balls.count(), 2);
+        assert!((0..2).all(|i| !balls.is_affine(i)));
     }
 }

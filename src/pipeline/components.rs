@@ -44,6 +44,7 @@ use rayon::prelude::*;
 
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
+use crate::mesh::check::closest_on_triangle;
 use crate::mesh::progress::Counts;
 use crate::solve::{SurfacePoint, surface_point};
 use crate::surface::{Fork, Surface};
@@ -162,6 +163,10 @@ pub enum SearchError {
         "the component search bounded {cells} cells of the box, more than a surface of at most {triangles} triangles (`max_triangles`) passes through: the surface in the box is larger than that, or its bounds are loose"
     )]
     CellBudget { cells: usize, triangles: u64 },
+    /// The surface could not be evaluated where the search asked (a `dist` found no foot
+    /// point there: `Surface::fault`).
+    #[error("the surface could not be evaluated at {at}: {reason}")]
+    Fault { at: DVec3, reason: String },
 }
 
 /// Octree cells bounded per triangle the mesh may hold. A surface of T triangles (edges up
@@ -377,6 +382,7 @@ fn search_components(
     let mut unseeded: Vec<Cell> = Vec::new();
     let mut refined = 0_usize;
     while let Some(pending) = walk.next(&mut *search.surface) {
+        search.no_fault()?;
         let cell = search.solid(pending.cell, pending.leaf);
         // A leaf without a seed is halved down to `SEEDLESS_LEAF` of a step: a plate or
         // ball that thin is seeded by then (Newton from a centre within a few thicknesses of
@@ -420,11 +426,13 @@ fn search_components(
                 (finer < 0.5 * pending.leaf).then_some(finer)
             }
         };
+        search.no_fault()?;
         if let Some(leaf) = finer {
             walk.refine(pending, leaf);
             refined += 1;
         }
     }
+    search.no_fault()?;
     if let Some(queue) = queue.as_mut() {
         queue.cells = walk.visited;
         search.drain(queue)?;
@@ -525,6 +533,18 @@ pub(crate) struct Seed {
 }
 
 impl Search<'_> {
+    /// Err with the place where the surface could not be evaluated, if it met one (a NaN
+    /// from a `dist` that found no foot point): the search stops at once.
+    fn no_fault(&self) -> Result<(), SearchError> {
+        match self.surface.fault() {
+            Some(f) => Err(SearchError::Fault {
+                at: f.at,
+                reason: f.reason,
+            }),
+            None => Ok(()),
+        }
+    }
+
     fn inside(&self, p: DVec3) -> bool {
         let (lo, hi) = self.bbox;
         p.cmpge(lo).all() && p.cmple(hi).all()
@@ -1175,43 +1195,6 @@ impl Cover {
             })
         })
     }
-}
-
-/// The point of triangle abc closest to p (Ericson, *Real-Time Collision Detection* 5.1.5).
-fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let denom = va + vb + vc;
-    if denom == 0.0 {
-        // Degenerate triangle: its first corner.
-        return a;
-    }
-    a + ab * (vb / denom) + ac * (vc / denom)
 }
 
 #[cfg(test)]

@@ -242,7 +242,7 @@ fn global_foot(surface: &mut dyn Surface, x: DVec3, first: Foot, tol: &FootToler
 
 /// The 26 directions from the centre of a 3 × 3 × 3 cube to its other cells (unnormalised),
 /// in a fixed order: no direction is more than ≈ 28° from one of them.
-const RAY_DIRECTIONS: [(f64, f64, f64); 26] = {
+pub(super) const RAY_DIRECTIONS: [(f64, f64, f64); 26] = {
     let mut dirs = [(0.0, 0.0, 0.0); 26];
     let mut n = 0;
     let mut c = 0;

@@ -1,8 +1,10 @@
 //! Numerical solvers on top of the surface oracle: Hartmann's surfacepoint projection (paper
-//! Sect. 2.2), and later foot points and curve tracing. Tolerances are named in `tolerance`.
+//! Sect. 2.2), foot points on smooth surfaces, patches and surfaces with creases (`solid`),
+//! and curve tracing. Tolerances are named in `tolerance`.
 
 pub mod curve;
 pub mod foot;
+pub mod solid;
 pub mod surfacepoint;
 pub mod tolerance;
 

@@ -196,3 +196,63 @@ impl Default for CurveTolerance {
         }
     }
 }
+
+/// Settings of the foot-point search on a surface with creases (`solve::solid`): a solid's
+/// faces, creases and corners.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolidFootTolerance {
+    /// The face searches (`solve::foot`, on one form each), and the scale, convergence,
+    /// iteration cap, Newton floor and backtracking of the crease searches (same meanings).
+    pub foot: FootTolerance,
+    /// A candidate lies on the surface when |f| ≤ `on_surface · scale · |∇f|` there; also
+    /// the distance below which a crease's gradient is taken from f at x. Default 1e-10: the
+    /// candidates are solved to ~1e-12·scale, and a point this close to the surface changes
+    /// the distance by no more.
+    pub on_surface: f64,
+    /// At a candidate off the surface, the forms whose value is within
+    /// `tie · scale · |∇|` of f's are the chosen ones (whose crease or corner is tried next).
+    /// Default 1e-9: exact ties of the forms f picks from, with room for the rounding of
+    /// their sums; a form counted that f does not pick only costs a solve.
+    pub tie: f64,
+    /// The first search radius without a warm hint, in units of |f(x)|/|∇f(x)| (the distance
+    /// to the chosen form's zero to first order). Default 2: beyond a box's corner the foot is
+    /// √3 times that away, on the cube of half-width 1 · that.
+    pub first_radius: f64,
+    /// While no candidate lies on the surface, the radius grows by this factor. Default 4.
+    pub radius_growth: f64,
+    /// Rounds of the radius before the search gives up. Default 40 (a radius 4⁴⁰ times the
+    /// first one: past any surface in floating point).
+    pub max_rounds: u32,
+    /// Gauss–Newton steps onto two forms (a crease) or three (a corner). Default 32: each
+    /// converges quadratically from within a fraction of a curvature radius.
+    pub projection_iterations: u32,
+    /// The step, relative to `foot.scale`, of the second difference along a crease that gives
+    /// its curvature vector. Default 1e-4: rounding of the projections (~1e-16·|p|) over h²
+    /// leaves ~1e-8 relative, and the estimate only sets the speed of convergence.
+    pub curve_step: f64,
+    /// Two normals whose sine is below this (three whose determinant is below it, relative to
+    /// their lengths) define no crease (no corner). Default 1e-6, as for traced curves.
+    pub tangent_sine: f64,
+    /// The global phase does not search a face again from a ray's crossing whose unit normal
+    /// is within this of the normal at the face's foot found from x, on that foot's tangent
+    /// plane (within this times the scale): the same plane, where the search would end in
+    /// the same foot. Default 1e-9.
+    pub same_plane: f64,
+}
+
+impl Default for SolidFootTolerance {
+    fn default() -> Self {
+        SolidFootTolerance {
+            foot: FootTolerance::default(),
+            on_surface: 1e-10,
+            tie: 1e-9,
+            first_radius: 2.0,
+            radius_growth: 4.0,
+            max_rounds: 40,
+            projection_iterations: 32,
+            curve_step: 1e-4,
+            tangent_sine: 1e-6,
+            same_plane: 1e-9,
+        }
+    }
+}

@@ -5,7 +5,7 @@
 
 use glam::DVec3;
 
-use super::{Patch, PatchJet, Surface, ValueGrad};
+use super::{Fault, Patch, PatchJet, Surface, ValueGrad};
 use crate::compile::tape::Tape;
 use crate::compile::{CompileError, Lowered, lower_patch, lower_spine, lower_surface};
 use crate::eval::native::NativeError;
@@ -83,6 +83,10 @@ impl Surface for CompiledSurface {
 
     fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
         Some(self.vm.interval_grad(lo, hi, axes))
+    }
+
+    fn fault(&self) -> Option<Fault> {
+        self.vm.fault()
     }
 }
 

@@ -4,8 +4,10 @@
 //! iterations: that normal *is* the gradient of the distance function wherever the foot
 //! point is unique).
 //!
-//! Failure is reported through the `Surface` contract: value and gradient NaN, which callers
-//! detect. Direct callers who want the reason use `foot`, which returns the typed error.
+//! Failure is reported through the `Surface` contract: value and gradient NaN, and the first
+//! failure kept as the surface's `fault` (its query point and the typed error's words), which
+//! the component search and the march ask after each step to stop at once with that place.
+//! Direct callers who want the reason use `foot`, which returns the typed error.
 //!
 //! Warm start: each surface remembers its last query and foot point. `ImplicitDist` starts a
 //! query within `warm_radius · scale` of the last one from the last foot point (and its
@@ -16,17 +18,25 @@
 //! the last (u, v) first and then from the pre-search seeds, so a warm start only saves work.
 //! Answers depend on the order of queries only at the level of the convergence tolerance, and
 //! that order is itself deterministic.
+//!
+//! `SolidDist` is the distance to a surface with creases (a solid written with `box`,
+//! `union`, `difference`, `min`, `max`, `abs`), whose nearest point may lie on a face, a
+//! crease or a corner (`solve::solid`); it is built instead of `ImplicitDist` where the
+//! measured surface has a spine. Its warm start is only the first search radius (the last
+//! foot's distance), so its answers do not depend on the order of queries beyond the
+//! convergence tolerance.
 //! The algorithms, regions and conventions are described in `docs/implicitization.md`.
 
 use glam::DVec3;
 
-use super::{Patch, Surface, ValueGrad};
+use super::{Fault, Patch, Surface, ValueGrad};
 use crate::eval::Interval;
 use crate::solve::foot::{
     Curvature, Foot, FootError, PatchFoot, PatchFootError, PatchGrid, foot_point,
     foot_point_hinted, patch_foot,
 };
-use crate::solve::tolerance::{FootTolerance, PatchFootTolerance};
+use crate::solve::solid::{Pieces, SolidFoot, SolidFootError, SolidScratch, solid_foot_in};
+use crate::solve::tolerance::{FootTolerance, PatchFootTolerance, SolidFootTolerance};
 
 /// What a NaN-reporting surface returns.
 const FAILED: ValueGrad = ValueGrad {
@@ -47,6 +57,16 @@ fn lipschitz_bound(d: &mut dyn Surface, lo: DVec3, hi: DVec3) -> Option<Interval
         .then(|| Interval::new(centre - r - slack, centre + r + slack))
 }
 
+/// Keeps the first failure of a distance surface's queries as its fault.
+fn keep_fault(fault: &mut Option<Fault>, at: DVec3, error: &dyn std::fmt::Display) {
+    if fault.is_none() {
+        *fault = Some(Fault {
+            at,
+            reason: error.to_string(),
+        });
+    }
+}
+
 /// The oriented distance to an implicit surface f = 0: negative where f < 0.
 pub struct ImplicitDist {
     /// The surface whose distance this is.
@@ -54,6 +74,8 @@ pub struct ImplicitDist {
     /// Foot-point settings; `tolerance.scale` should be the mesh step when it is known.
     pub tolerance: FootTolerance,
     warm: Option<(DVec3, DVec3, Option<Curvature>)>,
+    /// The first query without a foot point.
+    fault: Option<Fault>,
 }
 
 impl ImplicitDist {
@@ -67,6 +89,7 @@ impl ImplicitDist {
             inner,
             tolerance,
             warm: None,
+            fault: None,
         }
     }
 
@@ -88,6 +111,9 @@ impl ImplicitDist {
             Ok(f) if f.min_eigenvalue >= tol.warm_min_eigenvalue => Some((x, f.point, f.curvature)),
             _ => None,
         };
+        if let Err(e) = &result {
+            keep_fault(&mut self.fault, x, e);
+        }
         result
     }
 
@@ -111,6 +137,10 @@ impl Surface for ImplicitDist {
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
         lipschitz_bound(self, lo, hi)
     }
+
+    fn fault(&self) -> Option<Fault> {
+        self.fault.clone().or_else(|| self.inner.fault())
+    }
 }
 
 /// The oriented distance to a parametric patch, extended beyond its declared domain:
@@ -123,6 +153,8 @@ pub struct PatchDist {
     /// Built on the first query.
     grid: Option<PatchGrid>,
     warm: Option<(DVec3, (f64, f64))>,
+    /// The first query without a foot point.
+    fault: Option<Fault>,
 }
 
 impl PatchDist {
@@ -137,6 +169,7 @@ impl PatchDist {
             tolerance,
             grid: None,
             warm: None,
+            fault: None,
         }
     }
 
@@ -148,7 +181,13 @@ impl PatchDist {
         let tol = self.tolerance;
         let grid = match &mut self.grid {
             Some(grid) => grid,
-            None => self.grid.insert(PatchGrid::new(self.patch.as_mut(), &tol)?),
+            None => match PatchGrid::new(self.patch.as_mut(), &tol) {
+                Ok(grid) => self.grid.insert(grid),
+                Err(e) => {
+                    keep_fault(&mut self.fault, x, &e);
+                    return Err(e);
+                }
+            },
         };
         let warm = self
             .warm
@@ -156,6 +195,9 @@ impl PatchDist {
             .map(|(_, uv)| uv);
         let result = patch_foot(self.patch.as_mut(), x, warm, grid, &tol);
         self.warm = result.as_ref().ok().map(|f| (x, (f.u, f.v)));
+        if let Err(e) = &result {
+            keep_fault(&mut self.fault, x, e);
+        }
         result
     }
 
@@ -178,5 +220,82 @@ impl Surface for PatchDist {
 
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
         lipschitz_bound(self, lo, hi)
+    }
+
+    fn fault(&self) -> Option<Fault> {
+        self.fault.clone()
+    }
+}
+
+/// The oriented distance to a surface with creases — faces, creases and corners of a solid —
+/// negative where f < 0 (`solve::solid`).
+pub struct SolidDist {
+    /// The surface's forms and f.
+    pub pieces: Box<dyn Pieces>,
+    /// Foot-point settings; `tolerance.foot.scale` should be the mesh step when it is known.
+    pub tolerance: SolidFootTolerance,
+    /// The last query and its foot point.
+    warm: Option<(DVec3, DVec3)>,
+    scratch: SolidScratch,
+    /// The first query without a foot point.
+    fault: Option<Fault>,
+}
+
+impl SolidDist {
+    /// The distance to the surface of `pieces` with the default tolerance (scale 1).
+    pub fn new(pieces: Box<dyn Pieces>) -> Self {
+        Self::with_tolerance(pieces, SolidFootTolerance::default())
+    }
+
+    pub fn with_tolerance(pieces: Box<dyn Pieces>, tolerance: SolidFootTolerance) -> Self {
+        SolidDist {
+            pieces,
+            tolerance,
+            warm: None,
+            scratch: SolidScratch::default(),
+            fault: None,
+        }
+    }
+
+    /// The foot point of x, with the reason when there is none. A query within
+    /// `warm_radius · scale` of the last one starts its search radius at the last foot
+    /// point's distance (a point of the surface), which changes only the work.
+    pub fn foot(&mut self, x: DVec3) -> Result<SolidFoot, SolidFootError> {
+        let tol = self.tolerance;
+        let hint = self
+            .warm
+            .filter(|(wx, _)| (x - *wx).length() <= tol.foot.warm_radius * tol.foot.scale)
+            .map(|(_, q)| q);
+        let result = solid_foot_in(self.pieces.as_mut(), x, hint, &tol, &mut self.scratch);
+        self.warm = result.as_ref().ok().map(|f| (x, f.point));
+        if let Err(e) = &result {
+            keep_fault(&mut self.fault, x, e);
+        }
+        result
+    }
+
+    /// Forget the warm start.
+    pub fn clear_warm_start(&mut self) {
+        self.warm = None;
+    }
+}
+
+impl Surface for SolidDist {
+    fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+        match self.foot(p) {
+            Ok(f) => ValueGrad {
+                value: f.distance,
+                gradient: f.gradient,
+            },
+            Err(_) => FAILED,
+        }
+    }
+
+    fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
+        lipschitz_bound(self, lo, hi)
+    }
+
+    fn fault(&self) -> Option<Fault> {
+        self.fault.clone().or_else(|| self.pieces.fault())
     }
 }

@@ -8,9 +8,9 @@ use glam::DVec3;
 
 pub mod dist;
 
-pub use crate::values::{Surface, ValueGrad};
+pub use crate::values::{Fault, Surface, ValueGrad};
 
-pub use dist::{ImplicitDist, PatchDist};
+pub use dist::{ImplicitDist, PatchDist, SolidDist};
 
 /// Makes a fresh oracle of a surface, built on the thread that calls it (an oracle is not
 /// shared between threads): one per march of the component search or of a piece on the rayon

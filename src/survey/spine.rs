@@ -23,7 +23,7 @@ use glam::DVec3;
 use crate::compile::tape::Op;
 use crate::eval::Interval;
 use crate::eval::interval::interval;
-use crate::surface::{Surface, ValueGrad};
+use crate::surface::{Fault, Surface, ValueGrad};
 
 /// One operation of the spine; operands are earlier terms.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -983,6 +983,11 @@ impl Creased {
         }
     }
 
+    /// The first fault of a branch (a `dist` without a foot point), if any.
+    pub fn fault(&self) -> Option<Fault> {
+        self.branches.iter().find_map(|b| b.fault())
+    }
+
     /// Form i as a surface of its own.
     pub fn piece(&mut self, i: usize) -> Piece<'_> {
         Piece { of: self, form: i }
@@ -1003,6 +1008,10 @@ impl Surface for Piece<'_> {
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
         self.of.form_bound(self.form, lo, hi)
     }
+
+    fn fault(&self) -> Option<Fault> {
+        self.of.fault()
+    }
 }
 
 /// f itself through its spine, as a [`Surface`] (its bound from the forms' hull).
@@ -1011,6 +1020,10 @@ pub struct Whole<'a>(pub &'a mut Creased);
 impl Surface for Whole<'_> {
     fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
         self.0.whole(p)
+    }
+
+    fn fault(&self) -> Option<Fault> {
+        self.0.fault()
     }
 }
 

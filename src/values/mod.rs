@@ -9,4 +9,4 @@ pub mod oracle;
 
 pub use interval::Interval;
 pub use interval_grad::IntervalGrad;
-pub use oracle::{Surface, ValueGrad};
+pub use oracle::{Fault, Surface, ValueGrad};

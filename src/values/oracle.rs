@@ -14,6 +14,17 @@ pub struct ValueGrad {
     pub gradient: DVec3,
 }
 
+/// A value an oracle could not compute where it should exist — a foot point of `dist` that
+/// was not found — with its place and why (a formula's NaN outside its domain is its value,
+/// not a fault).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fault {
+    /// The query point.
+    pub at: DVec3,
+    /// Why, with the figures of the failed search (iterations, residual, last point).
+    pub reason: String,
+}
+
 /// An implicit surface f(x, y, z) = 0.
 ///
 /// Methods take `&mut self` so that an implementation may keep scratch registers or a
@@ -56,6 +67,13 @@ pub trait Surface {
         let _ = (lo, hi, axes);
         None
     }
+
+    /// The first fault met since the oracle was built (its value there was NaN), or None.
+    /// The search and the march ask after each step and stop with its place, rather than
+    /// go on through NaN (docs/implicitization.md). Default: None.
+    fn fault(&self) -> Option<Fault> {
+        None
+    }
 }
 
 impl<S: Surface + ?Sized> Surface for Box<S> {
@@ -74,6 +92,9 @@ impl<S: Surface + ?Sized> Surface for Box<S> {
     fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
         (**self).bound_gradient(lo, hi, axes)
     }
+    fn fault(&self) -> Option<Fault> {
+        (**self).fault()
+    }
 }
 
 impl<S: Surface + ?Sized> Surface for &mut S {
@@ -91,5 +112,8 @@ impl<S: Surface + ?Sized> Surface for &mut S {
     }
     fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
         (**self).bound_gradient(lo, hi, axes)
+    }
+    fn fault(&self) -> Option<Fault> {
+        (**self).fault()
     }
 }

@@ -314,3 +314,36 @@ fn a_search_with_loose_bounds_stops_at_its_cell_budget() {
     assert!(stderr.contains("raise `max_triangles`"), "{stderr}");
     assert!(took < QUICK, "took {took:?}");
 }
+
+/// A `dist` whose foot point cannot be found (a sharp corner hidden inside `exp`, where the
+/// smooth foot-point search does not converge) is reported at once with its place, in the
+/// component search and in a march from a start point (issue 42: the rounded box ran past
+/// 300 s with no message while every query near a corner failed).
+#[test]
+fn a_dist_without_a_foot_point_is_refused_at_once_with_its_place() {
+    let surface = "surface c = exp(max(max(abs(x), abs(y)), abs(z))) - exp(0.5);\n\
+                   surface o = offset(c, 0.2);\n";
+    for (name, block) in [
+        (
+            "box",
+            "mesh o = o { step: 0.05; box: (-1, -1, -1) .. (1, 1, 1); }\n",
+        ),
+        ("start", "mesh o = o { step: 0.05; start: (0.7, 0, 0); }\n"),
+    ] {
+        let dir = scratch(
+            &format!("foot-{name}"),
+            "o.surf",
+            &format!("{surface}{block}"),
+        );
+        let (code, stderr, took) = surfc(&["mesh", "o.surf", "-q", "-o", "o.obj"], &dir);
+        assert_eq!(code, 1, "{name}: {stderr}");
+        assert!(stderr.contains("error[E0601]"), "{name}: {stderr}");
+        assert!(
+            stderr.contains("the surface could not be evaluated at [")
+                && stderr.contains("no foot point of"),
+            "{name}: {stderr}"
+        );
+        assert!(took < QUICK, "{name} took {took:?}");
+        assert!(!dir.join("o.obj").exists(), "{name}");
+    }
+}

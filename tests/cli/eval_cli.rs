@@ -131,3 +131,38 @@ fn a_reader_that_stops_early_is_not_an_error() {
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     assert!(stderr.is_empty(), "{stderr}");
 }
+
+/// `offset` rounds a box (issue 42): beyond its corner, `surfc eval` gives the distance to
+/// the corner minus the offset and the unit vector from the corner (before: NaN).
+#[test]
+fn eval_of_a_rounded_box_beyond_its_corner() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rounded.surf");
+    std::fs::write(
+        &path,
+        "surface b = box((-0.5, -0.5, -0.5), (0.5, 0.5, 0.5));\nsurface r = offset(b, 0.2);\n",
+    )
+    .unwrap();
+    let args = [
+        "eval",
+        path.to_str().unwrap(),
+        "r",
+        "0.65",
+        "0.65",
+        "0.65",
+        "--json",
+    ];
+    let (code, stdout, stderr) = cli::surfc(&args, Path::new(".")).text();
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    let value = v["value"].as_f64().expect("a number");
+    let expected = (3.0f64 * 0.15 * 0.15).sqrt() - 0.2;
+    assert!(
+        (value - expected).abs() <= 1e-15,
+        "{value} against {expected}"
+    );
+    let unit = 1.0 / 3.0f64.sqrt();
+    for g in v["gradient"].as_array().expect("three numbers") {
+        assert!((g.as_f64().expect("a number") - unit).abs() <= 1e-15, "{v}");
+    }
+}

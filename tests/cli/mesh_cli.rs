@@ -251,3 +251,87 @@ fn radius_ratio_sets_the_quality_stages_aim() {
         assert!(full >= 0.98, "{formula}: {full}");
     }
 }
+
+/// The paper's own example in the paper's mode (issue 42): genus 3 at step 0.3 with
+/// `uniform: true` meshes (about the paper's 7354 triangles, χ = −4) with a warning that
+/// gives its chord error above the default tolerance, on stderr and in `--json` `warnings`;
+/// a `tolerance` written in the block is enforced (refused, E0601, naming the place).
+#[test]
+fn the_uniform_step_warns_of_a_chord_error_above_the_default_tolerance() {
+    let dir = cli::scratch("mesh-cli-uniform");
+    let genus3 =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/genus3.surf"))
+            .unwrap();
+    assert!(genus3.contains("start: (0, 3, 0);"));
+    let uniform = write(
+        &dir,
+        "uniform.surf",
+        &genus3.replace("start: (0, 3, 0);", "start: (0, 3, 0); uniform: true;"),
+    );
+    let (code, stdout, stderr) =
+        cli::surfc(&["mesh", &uniform, "--json", "-o", "u.obj"], &dir).text();
+    assert_eq!(code, 0, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    let m = &json["meshes"][0];
+    let triangles = m["triangles"].as_u64().expect("a count");
+    assert!(
+        (6700..=8100).contains(&triangles),
+        "{triangles} triangles, the paper's 7354"
+    );
+    assert_eq!(m["euler_characteristic"], -4, "{m}");
+    assert_eq!(m["boundary_edges"], 0, "{m}");
+    let chord = m["max_chord_error"].as_f64().expect("a number");
+    assert!(chord > 0.03, "{chord}");
+    let warnings = m["warnings"].as_array().expect("a list");
+    let w = warnings
+        .iter()
+        .filter_map(|w| w.as_str())
+        .find(|w| w.contains("above the default tolerance"))
+        .unwrap_or_else(|| panic!("no chord warning in {warnings:?}"));
+    // The figure: the largest chord error, as the report gives it.
+    assert!(w.contains(&format!("{chord:.3e}")), "{w} ({chord})");
+    assert!(w.contains("uniform: true"), "{w}");
+    assert!(
+        stderr.contains(&format!("warning: mesh `genus3`: {w}")),
+        "{stderr}"
+    );
+    // The summary on stderr (without --json) has the warning too.
+    let (code, _, stderr) = cli::surfc(&["mesh", &uniform, "-o", "u.obj"], &dir).text();
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("above the default tolerance"), "{stderr}");
+    // An explicit tolerance is enforced.
+    let strict = write(
+        &dir,
+        "strict.surf",
+        &genus3.replace(
+            "start: (0, 3, 0);",
+            "start: (0, 3, 0); uniform: true; tolerance: 0.03;",
+        ),
+    );
+    let (code, _, stderr) = cli::surfc(&["mesh", &strict, "-o", "s.obj"], &dir).text();
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("error[E0601]"), "{stderr}");
+    assert!(stderr.contains("above the tolerance 3.000e-2"), "{stderr}");
+}
+
+/// A box with no surface in it (issue 42) is an error, E0605, that gives the range of f over
+/// the box, and writes no file; `--json` has the code.
+#[test]
+fn a_box_without_surface_is_e0605_with_the_range_of_f() {
+    let dir = cli::scratch("mesh-cli-empty-box");
+    let file = write(
+        &dir,
+        "far.surf",
+        "surface ball = x^2 + y^2 + z^2 - 1;\nmesh m = ball { step: 0.2; box: (3, 3, 3) .. (4, 4, 4); }\n",
+    );
+    let (code, _, stderr) = cli::surfc(&["mesh", &file, "-o", "far.obj"], &dir).text();
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("error[E0605]"), "{stderr}");
+    // f = |p|² − 1 over [3, 4]³: from 26 at (3, 3, 3) to 47 at (4, 4, 4).
+    assert!(stderr.contains("f ranges over [26, 47]"), "{stderr}");
+    assert!(!dir.join("far.obj").exists());
+    let (code, stdout, _) = cli::surfc(&["mesh", &file, "--json", "-o", "far.obj"], &dir).text();
+    assert_eq!(code, 1);
+    let json: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    assert_eq!(json["errors"][0]["code"], "E0605", "{json}");
+}

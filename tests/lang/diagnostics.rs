@@ -1,6 +1,8 @@
 //! Diagnostics: every malformed file of `fixtures/errors/` (one mistake class each) is
-//! rendered without colour and snapshotted together with its source; and the built binary's
-//! exit codes: examples 0, fixtures 1 with an error code on stderr, a missing file 2.
+//! rendered without colour and snapshotted together with its source; so is every file of
+//! `fixtures/errors/mesh/`, which checks but cannot be meshed (its diagnostic comes from
+//! meshing); and the built binary's exit codes: examples 0, fixtures 1 with an error code on
+//! stderr, a missing file 2.
 
 use crate::common::cli;
 use std::path::{Path, PathBuf};
@@ -65,6 +67,31 @@ fn fixtures_render_their_diagnostics() {
     });
 }
 
+/// The diagnostics of meshing the fixture at `path` (it checks without errors), rendered
+/// with the file named `name`.
+fn mesh_diagnose(path: &Path, name: &str) -> (Vec<Diagnostic>, String) {
+    let source = std::fs::read_to_string(path).expect("fixture is readable");
+    let checked = surfc::check(&source).expect("a mesh fixture checks");
+    let errors = checked.mesh().expect_err("a mesh fixture cannot be meshed");
+    let rendered = errors.render(name);
+    (errors.diagnostics, rendered)
+}
+
+/// Files that check but cannot be meshed: the diagnostic of the mesh block, snapshotted
+/// with the source.
+#[test]
+fn mesh_fixtures_render_their_diagnostics() {
+    insta::glob!("../fixtures/errors/mesh", "*.surf", |path| {
+        let name = path
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let source = std::fs::read_to_string(path).expect("fixture is readable");
+        let (diags, rendered) = mesh_diagnose(path, &name);
+        assert!(diag::has_errors(&diags), "{name}: no error reported");
+        insta::assert_snapshot!(format!("--- source\n{source}--- diagnostics\n{rendered}"));
+    });
+}
+
 /// The fixtures' directory with a trailing `/`: removed from the names of imported files in
 /// snapshots, which must not depend on where the repository is.
 fn fixtures_dir() -> String {
@@ -86,6 +113,10 @@ fn every_code_has_a_fixture() {
             continue;
         }
         let (_, diags) = diagnose(&path, "fixture");
+        seen.extend(diags.iter().map(|d| d.code));
+    }
+    for path in files("tests/fixtures/errors/mesh") {
+        let (diags, _) = mesh_diagnose(&path, "fixture");
         seen.extend(diags.iter().map(|d| d.code));
     }
     // E0010 needs more than a screenful of errors, E0099 is a bug of ours; E0601 and E0602
@@ -143,6 +174,29 @@ fn binary_rejects_every_fixture() {
         assert_eq!(code, 1, "{}: {stderr}", p.display());
         assert!(stderr.contains("error[E"), "{}: {stderr}", p.display());
         assert!(!stderr.contains('\u{1b}'), "colour with --color never");
+    }
+}
+
+#[test]
+fn binary_refuses_to_mesh_every_mesh_fixture() {
+    let out = cli::scratch("mesh-fixtures");
+    for p in files("tests/fixtures/errors/mesh") {
+        let obj = out.join("out.obj");
+        let (code, stderr) = cli::surfc(
+            &[
+                "mesh",
+                "--color",
+                "never",
+                p.to_str().expect("utf-8 path"),
+                "-o",
+                obj.to_str().expect("utf-8 path"),
+            ],
+            Path::new("."),
+        )
+        .code_and_stderr();
+        assert_eq!(code, 1, "{}: {stderr}", p.display());
+        assert!(stderr.contains("error[E06"), "{}: {stderr}", p.display());
+        assert!(!obj.exists(), "{}: a file was written", p.display());
     }
 }
 

@@ -1,5 +1,5 @@
 //! The language and its evaluation: parsing, formatting and diagnostics, the compiler's tapes
-//! against a reference interpreter, intervals, the solids, distance surfaces, curves and the
+//! against a reference interpreter, intervals, the solids, distance surfaces (to solids too), curves and the
 //! surface-point solver.
 //!
 //! One test binary (tests/README.md says which root holds what); the helpers of all roots are
@@ -17,5 +17,6 @@ mod eval_props;
 mod fmt_roundtrip;
 mod fuzz_regressions;
 mod interval;
+mod solid_dist;
 mod surfacepoint;
 mod syntax_props;

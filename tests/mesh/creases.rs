@@ -675,6 +675,25 @@ fn csg_mesh(tree: &Tree, source: &str, step: f64, voxel: f64) -> (Outcome, Optio
     let meshed = match mesh_source(source) {
         Ok(mut m) => m.remove(0),
         Err(d) if d[0].code == "E0601" => return (Outcome::Refused, None),
+        // Nothing in the box (E0605): right where the reference sees nothing too; where it
+        // sees a component, right only if surfc said it was smaller than the step.
+        Err(d) if d[0].code == "E0605" => {
+            let small = d[0]
+                .notes
+                .iter()
+                .any(|n| n.contains("smaller than the step"));
+            let outcome = if grid.reference.components == 0 {
+                Outcome::Empty
+            } else if small {
+                Outcome::Small
+            } else {
+                Outcome::Wrong(format!(
+                    "E0605 (nothing in the box), the reference sees {:?}",
+                    grid.reference
+                ))
+            };
+            return (outcome, None);
+        }
         Err(d) => return (Outcome::Wrong(format!("not E0601: {d:?}")), None),
     };
     let small = meshed

@@ -593,6 +593,14 @@ impl Marcher<'_> {
                     degrees: turn.to_degrees(),
                 });
             }
+            // A NaN from a `dist` that found no foot point stops the march here, with its
+            // place, instead of steering the front by it.
+            if let Some(fault) = self.surface.fault() {
+                return Err(MarchError::Fault {
+                    at: fault.at,
+                    reason: fault.reason,
+                });
+            }
             let (surface, step, tolerance) = (&mut *self.surface, self.step, self.s.surface_point);
             self.guard.check(&self.pos, &self.triangles, last_at, |q| {
                 surface_point(surface, q, step, &tolerance)
