@@ -38,8 +38,9 @@
 mod api;
 
 pub use api::{
-    Checked, CompileError, Diagnostic, Errors, Format, Function, Mesh, MeshReport, MeshStats,
-    Meshed, NamedMesh, Severity, check, named, write_mesh,
+    CheckOptions, Checked, CompileError, Diagnostic, Errors, FileError, Format, Function, Mesh,
+    MeshReport, MeshStats, Meshed, NamedMesh, Severity, check, check_file, check_with, named,
+    write_mesh,
 };
 
 #[doc(hidden)]

@@ -15,6 +15,7 @@ pub mod mesh;
 mod render;
 mod report;
 mod signals;
+mod watch;
 
 /// Exit code: the input is wrong, or a mesh could not be completed.
 pub const EXIT_INPUT: u8 = 1;
@@ -75,6 +76,9 @@ pub enum Command {
     Eval(eval::EvalArgs),
     /// The compiled program of a surface, one instruction a line.
     Bytecode(bytecode::BytecodeArgs),
+    /// Mesh a file (and draw it, with --render) now and again at every save of it or of a
+    /// file it imports, until Ctrl-C.
+    Watch(watch::WatchArgs),
 }
 
 /// Writes `text` to stdout; the exit code. A reader that stopped reading (`surfc bytecode …
@@ -110,5 +114,6 @@ pub fn run(cli: Cli) -> u8 {
         Command::Render(args) => render::run(args, color),
         Command::Eval(args) => eval::run(args, color),
         Command::Bytecode(args) => bytecode::run(args, color),
+        Command::Watch(args) => watch::run(args, color),
     }
 }
