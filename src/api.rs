@@ -52,7 +52,7 @@ impl Errors {
     }
 
     /// The diagnostics as rendered, each file under the name it was given: the path of
-    /// [`check_file`] and [`CheckOptions::path`], `<stdin>` for a source given as text.
+    /// [`check_file`], [`CheckOptions::name`] or [`CheckOptions::path`], else `<stdin>`.
     pub fn rendered(&self) -> String {
         diag::render_map(&self.diagnostics, &self.files, false)
     }
@@ -121,6 +121,8 @@ pub fn check(source: &str) -> Result<Checked, Errors> {
 /// options of [`check_with`].
 #[derive(Clone, Debug, Default)]
 pub struct CheckOptions {
+    /// The name diagnostics give the source. None (the default): its path, else `<stdin>`.
+    pub name: Option<String>,
     /// The file the source was read from: diagnostics name it, and its `import`s are
     /// relative to its directory. None (the default): the source is `<stdin>`, its imports
     /// relative to the current directory.
@@ -142,15 +144,16 @@ pub struct CheckOptions {
 /// assert_eq!(checked.compile("ball")?.value([2.0, 0.0, 0.0]), 0.0);
 ///
 /// let unknown = surfc::CheckOptions { defines: vec![("q".to_owned(), 2.0)], ..Default::default() };
-/// let errors = surfc::check_with("const r = 1;", &unknown).unwrap_err();
+/// let errors = surfc::check_with("const r = 1; surface s = sphere(r);", &unknown).unwrap_err();
 /// assert_eq!(errors.diagnostics[0].code, "E0701");
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn check_with(source: &str, options: &CheckOptions) -> Result<Checked, Errors> {
-    let name = options.path.as_deref().map_or_else(
-        || crate::pipeline::load::STDIN_NAME.to_owned(),
-        |p| p.display().to_string(),
-    );
+    let name = match (&options.name, &options.path) {
+        (Some(name), _) => name.clone(),
+        (None, Some(path)) => path.display().to_string(),
+        (None, None) => crate::pipeline::load::STDIN_NAME.to_owned(),
+    };
     let (files, checked, diagnostics) = crate::pipeline::load::analyse_file(
         &name,
         options.path.as_deref(),
@@ -211,6 +214,7 @@ pub fn check_file(path: impl AsRef<Path>, defines: &[(String, f64)]) -> Result<C
         }
     };
     let options = CheckOptions {
+        name: Some(name),
         path: Some(path.to_path_buf()),
         defines: defines.to_vec(),
     };
