@@ -78,6 +78,10 @@ pub enum Command {
     Bytecode(bytecode::BytecodeArgs),
     /// Mesh a file (and draw it, with --render) now and again at every save of it or of a
     /// file it imports, until Ctrl-C.
+    ///
+    /// Takes every option of `mesh`; FILE and OUT are files here (not `-`). One line per
+    /// rebuild on stderr (with --json, one report per rebuild on stdout); a save with errors
+    /// prints them and leaves the last good files in place. Ctrl-C ends it with exit 0.
     Watch(watch::WatchArgs),
 }
 
