@@ -1,9 +1,13 @@
 //! The library's documented entry points, re-exported at the crate root: [`check`] a `.surf`
 //! source, [`Checked::compile`] one of its surfaces into a [`Function`] that gives value and
-//! gradient, [`Checked::mesh`] its mesh blocks, and [`write_mesh`] meshes in any [`Format`].
-//! The stages behind them (parser, checker, compiler, evaluator, marcher) are internal.
+//! gradient, [`Checked::mesh`] its mesh blocks, and [`write_mesh`] meshes in any [`Format`];
+//! [`check_with`] and [`check_file`] take a file's path (for its imports) and constants set
+//! from outside, as `surfc mesh FILE -D NAME=VALUE` does. The stages behind them (parser,
+//! checker, compiler, evaluator, marcher) are internal; the Python package (`python/`) stands
+//! on these functions.
 
 use std::io::{self, Write};
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
@@ -45,6 +49,28 @@ impl Errors {
             &self.files.with_root_name(file_name),
             false,
         )
+    }
+
+    /// The diagnostics as rendered, each file under the name it was given: the path of
+    /// [`check_file`], [`CheckOptions::name`] or [`CheckOptions::path`], else `<stdin>`.
+    pub fn rendered(&self) -> String {
+        diag::render_map(&self.diagnostics, &self.files, false)
+    }
+
+    /// The diagnostics as the JSON text of `surfc mesh --json`'s `errors` list: an array of
+    /// `{code, severity, message, file, line, column, help, notes, labels}` (docs/cli.md).
+    ///
+    /// ```
+    /// let errors = surfc::check("surface s = x + qq;").unwrap_err();
+    /// assert!(errors.json().starts_with(r#"[{"code":"E0101","severity":"error""#));
+    /// ```
+    pub fn json(&self) -> String {
+        let entries: Vec<diag::json::ErrorJson> = self
+            .diagnostics
+            .iter()
+            .map(|d| diag::json::ErrorJson::from_diagnostic(d, &self.files))
+            .collect();
+        serde_json::to_string(&entries).unwrap_or_default()
     }
 }
 
@@ -88,7 +114,52 @@ pub struct Checked {
 /// # Ok::<(), surfc::Errors>(())
 /// ```
 pub fn check(source: &str) -> Result<Checked, Errors> {
-    let (files, checked, diagnostics) = crate::pipeline::load::analyse(source);
+    check_with(source, &CheckOptions::default())
+}
+
+/// Where a source given as text comes from, and the constants set from outside: the
+/// options of [`check_with`].
+#[derive(Clone, Debug, Default)]
+pub struct CheckOptions {
+    /// The name diagnostics give the source. None (the default): its path, else `<stdin>`.
+    pub name: Option<String>,
+    /// The file the source was read from: diagnostics name it, and its `import`s are
+    /// relative to its directory. None (the default): the source is `<stdin>`, its imports
+    /// relative to the current directory.
+    pub path: Option<PathBuf>,
+    /// Constants of the source set to numbers, as `surfc mesh -D NAME=VALUE` sets them:
+    /// each replaces the `const` of that name (whose definition is still checked). A name
+    /// that is no constant of the source is diagnostic E0701, which lists the constants.
+    pub defines: Vec<(String, f64)>,
+}
+
+/// [`check`] with the source's path and constants set from outside.
+///
+/// ```
+/// let options = surfc::CheckOptions {
+///     defines: vec![("r".to_owned(), 2.0)],
+///     ..Default::default()
+/// };
+/// let checked = surfc::check_with("const r = 1; surface ball = x^2 + y^2 + z^2 - r^2;", &options)?;
+/// assert_eq!(checked.compile("ball")?.value([2.0, 0.0, 0.0]), 0.0);
+///
+/// let unknown = surfc::CheckOptions { defines: vec![("q".to_owned(), 2.0)], ..Default::default() };
+/// let errors = surfc::check_with("const r = 1; surface s = sphere(r);", &unknown).unwrap_err();
+/// assert_eq!(errors.diagnostics[0].code, "E0701");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn check_with(source: &str, options: &CheckOptions) -> Result<Checked, Errors> {
+    let name = match (&options.name, &options.path) {
+        (Some(name), _) => name.clone(),
+        (None, Some(path)) => path.display().to_string(),
+        (None, None) => crate::pipeline::load::STDIN_NAME.to_owned(),
+    };
+    let (files, checked, diagnostics) = crate::pipeline::load::analyse_file(
+        &name,
+        options.path.as_deref(),
+        source,
+        &options.defines,
+    );
     match checked {
         Some((_, program)) if !diag::has_errors(&diagnostics) => Ok(Checked {
             source: source.to_owned(),
@@ -98,6 +169,56 @@ pub fn check(source: &str) -> Result<Checked, Errors> {
         }),
         _ => Err(Errors { diagnostics, files }),
     }
+}
+
+/// Why [`check_file`] gave no checked program.
+#[derive(Debug, thiserror::Error)]
+pub enum FileError {
+    /// The file could not be read.
+    #[error("cannot read `{}`: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: io::Error,
+    },
+    /// The file (or a file it imports) has errors; a file that is not UTF-8 text is one too
+    /// (diagnostic E0009).
+    #[error(transparent)]
+    Errors(#[from] Errors),
+}
+
+/// Reads the `.surf` file at `path` and checks it, with its imports (relative to its
+/// directory) and the constants `defines` set from outside: what `surfc check FILE -D …`
+/// does.
+///
+/// ```no_run
+/// let checked = surfc::check_file("examples/torus.surf", &[])?;
+/// let meshes = checked.mesh()?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn check_file(path: impl AsRef<Path>, defines: &[(String, f64)]) -> Result<Checked, FileError> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| FileError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let name = path.display().to_string();
+    let source = match crate::syntax::source_text(&bytes) {
+        Ok(text) => text,
+        Err(diagnostic) => {
+            return Err(FileError::Errors(Errors {
+                diagnostics: vec![diagnostic],
+                files: SourceMap::single(&name, &String::from_utf8_lossy(&bytes)),
+            }));
+        }
+    };
+    let options = CheckOptions {
+        name: Some(name),
+        path: Some(path.to_path_buf()),
+        defines: defines.to_vec(),
+    };
+    Ok(check_with(source, &options)?)
 }
 
 impl Checked {
@@ -113,6 +234,24 @@ impl Checked {
             .iter()
             .map(|s| s.name.as_str())
             .collect()
+    }
+
+    /// The names and values of the `const` definitions (the source's and its imports'),
+    /// after the constants set from outside.
+    pub fn constants(&self) -> Vec<(&str, f64)> {
+        self.program
+            .constants
+            .iter()
+            .map(|c| (c.name.as_str(), c.value))
+            .collect()
+    }
+
+    /// The warnings as rendered (empty without warnings), as [`Errors::rendered`] renders.
+    pub fn rendered_warnings(&self) -> String {
+        if self.warnings.is_empty() {
+            return String::new();
+        }
+        diag::render_map(&self.warnings, &self.files, false)
     }
 
     /// The names of the `mesh` blocks, in source order.

@@ -4,6 +4,9 @@
 //! The library API is small: [`check`] a source, then [`Checked::compile`] a surface into a
 //! [`Function`] (value and gradient), or [`Checked::mesh`] its mesh blocks, and
 //! [`write_mesh`] the meshes in any [`Format`] (OBJ, STL, PLY, OFF, GLB, 3MF, MSH, VTU).
+//! [`check_with`] and [`check_file`] take a file's path (for its imports) and constants set
+//! from outside, as `surfc mesh FILE -D NAME=VALUE` does; the Python package (`python/`)
+//! stands on these.
 //!
 //! ```
 //! let source = "
@@ -38,8 +41,9 @@
 mod api;
 
 pub use api::{
-    Checked, CompileError, Diagnostic, Errors, Format, Function, Mesh, MeshReport, MeshStats,
-    Meshed, NamedMesh, Severity, check, named, write_mesh,
+    CheckOptions, Checked, CompileError, Diagnostic, Errors, FileError, Format, Function, Mesh,
+    MeshReport, MeshStats, Meshed, NamedMesh, Severity, check, check_file, check_with, named,
+    write_mesh,
 };
 
 #[doc(hidden)]

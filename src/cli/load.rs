@@ -6,7 +6,7 @@ use std::io::{IsTerminal, Read};
 use std::path::{Path, PathBuf};
 
 use crate::diag;
-use crate::pipeline::load::analyse_file;
+use crate::pipeline::load::analyse_inputs;
 use crate::sema::program::Program;
 use crate::span::SourceMap;
 use crate::syntax::{self, ast};
@@ -142,12 +142,50 @@ pub(crate) fn load_reported(
     color: ColorMode,
     defines: &DefineArgs,
 ) -> Result<Loaded, Failure> {
-    check_defines(&defines.define, path)?;
-    let source = read_source(path, color)?;
+    load_with_imports(path, color, defines).0
+}
+
+/// An input file of a build and the bytes the build read of it (None: it could not be
+/// read, e.g. an import not there): what `surfc watch` compares a file with after a save.
+pub(crate) type ReadFile = (PathBuf, Option<Vec<u8>>);
+
+/// [`load_reported`], and every file the build depends on, the root first, each with what
+/// was read of it: the root and every file it imports (found or not).
+pub(crate) fn load_with_imports(
+    path: &Path,
+    color: ColorMode,
+    defines: &DefineArgs,
+) -> (Result<Loaded, Failure>, Vec<ReadFile>) {
+    // Read again where the build kept nothing of it (it could not be read, or it is no text):
+    // as close to the build's reading as the file can be had.
+    let reread = |p: &Path| std::fs::read(p).ok();
+    if let Err(failure) = check_defines(&defines.define, path) {
+        return (Err(failure), vec![(path.to_path_buf(), reread(path))]);
+    }
+    let source = match read_source(path, color) {
+        Ok(source) => source,
+        Err(failure) => return (Err(failure), vec![(path.to_path_buf(), reread(path))]),
+    };
     let name = input_name(path);
     let file = (!is_stdin(path)).then_some(path);
-    let (map, checked, diags) = analyse_file(&name, file, &source, &defines.define);
-    match checked {
+    let analysis = analyse_inputs(&name, file, &source, &defines.define);
+    let mut read = vec![(path.to_path_buf(), Some(source.clone().into_bytes()))];
+    for import in analysis.imports {
+        let shown = import.display().to_string();
+        let text = match analysis
+            .map
+            .files()
+            .iter()
+            .skip(1)
+            .find(|f| f.name == shown)
+        {
+            Some(f) => Some(f.text.clone().into_bytes()),
+            None => reread(&import),
+        };
+        read.push((import, text));
+    }
+    let (map, diags) = (analysis.map, analysis.diagnostics);
+    let loaded = match analysis.checked {
         Some((ast, program)) if !diag::has_errors(&diags) => {
             if !diags.is_empty() {
                 diag::emit_stderr_map(&diags, &map, stderr_color(color));
@@ -161,7 +199,8 @@ pub(crate) fn load_reported(
             })
         }
         _ => Err(Failure::diagnostics_map(&diags, &map, stderr_color(color))),
-    }
+    };
+    (loaded, read)
 }
 
 /// [`load_reported`] for commands that need only the exit code.

@@ -20,7 +20,8 @@ use crate::mesh::progress::Bars;
 use crate::mesh::quality::MeshReport;
 use crate::mesh::summary::{MeshSummary, format_stats, format_summary};
 use crate::mesh::write::{Format, Unit, WriteOptions, target, write_mesh_file_with};
-use crate::pipeline::{CreaseCounts, Meshed, mesh_program, named};
+use crate::pipeline::report::BlockJson;
+use crate::pipeline::{Meshed, mesh_program, named};
 use crate::sema::program::MeshDef;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -124,32 +125,8 @@ pub struct MeshArgs {
 /// The `--json` report (docs/cli.md); structs keep the keys in the documented order.
 #[derive(Serialize)]
 struct Json<'a> {
-    meshes: Vec<MeshJson<'a>>,
+    meshes: Vec<BlockJson<'a>>,
     seconds: f64,
-}
-
-/// One mesh of the `--json` report (docs/cli.md).
-#[derive(Serialize)]
-struct MeshJson<'a> {
-    name: &'a str,
-    surface: &'a str,
-    step: f64,
-    #[serde(flatten)]
-    report: MeshReport,
-    max_chord_error: f64,
-    warnings: &'a [String],
-    /// Whether the mesh was flipped against its ∇f to agree with the net it joins.
-    flipped: bool,
-    /// The creases of a mesh made crease by crease, else null.
-    creases: Option<CreaseCounts>,
-    /// Slabs marched on separate threads (`pipeline::pieces`); left out when 1.
-    #[serde(skip_serializing_if = "is_one")]
-    pieces: usize,
-    seconds: f64,
-}
-
-fn is_one(n: &usize) -> bool {
-    *n == 1
 }
 
 pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
@@ -170,14 +147,14 @@ pub fn run(args: MeshArgs, color: ColorMode) -> u8 {
 }
 
 /// Where the mesh file goes.
-enum Output {
+pub(crate) enum Output {
     File(PathBuf),
     Stdout,
 }
 
 /// The output and its format, from `-o` and `--format`; a usage error where they do not say
 /// enough or disagree.
-fn choose_output(args: &MeshArgs) -> Result<(Output, Format), Failure> {
+pub(crate) fn choose_output(args: &MeshArgs) -> Result<(Output, Format), Failure> {
     let explicit = args.format.map(Format::from);
     match args.output.as_deref() {
         Some(out) if is_stdin(out) => {
@@ -214,75 +191,12 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
     let started = Instant::now();
     let (output, format) = choose_output(&args)?;
     let loaded = load_reported(&args.file, color, &args.defines)?;
-    let selected = select(&loaded, &args.only)?;
-    // Before meshing, so that the user does not wait for a refusal (a FIFO is not opened).
-    if let Output::File(path) = &output {
-        target::check_output(path, &args.file).map_err(|e| Failure::io(e.to_string(), path))?;
-    }
-    let meshed = mesh_blocks(&loaded, &selected, color, args.quiet, args.engine.into())?;
-    for m in &meshed {
-        for w in &m.warnings {
-            eprintln!("warning: mesh `{}`: {w}", m.name);
-        }
-    }
-
-    let meshes = named(&meshed);
-    let unit = Unit::from(args.unit);
-    let written = match &output {
-        Output::File(path) => {
-            let line = Bars::new(args.quiet).writing(&path.display().to_string());
-            let options = WriteOptions {
-                unit,
-                written: Some(line.count()),
-            };
-            let result = write_mesh_file_with(path, format, &meshes, &options);
-            line.finish();
-            result
-                .map(|()| path.display().to_string())
-                .map_err(|e| Failure::io(e.to_string(), e.path()))
-        }
-        Output::Stdout => {
-            write_stdout(format, unit, &meshes).map(|()| "standard output".to_owned())
-        }
-    }?;
-
+    let (meshed, written) = mesh_and_write(&loaded, &args, &output, format, color)?;
     if args.json {
-        let meshes: Vec<MeshJson> = meshed
-            .iter()
-            .map(|m| MeshJson {
-                name: &m.name,
-                surface: &m.surface,
-                step: m.step,
-                report: m.report.clone(),
-                max_chord_error: m.max_chord_error,
-                warnings: &m.warnings,
-                flipped: m.flipped,
-                creases: m.creases,
-                pieces: m.pieces,
-                seconds: m.seconds,
-            })
-            .collect();
-        let json = Json {
-            meshes,
-            seconds: started.elapsed().as_secs_f64(),
-        };
-        let code = super::print_stdout(&format!(
-            "{}\n",
-            serde_json::to_string(&json).unwrap_or_default()
-        ));
-        if code != 0 {
-            return Err(Failure {
-                exit: code,
-                errors: Vec::new(),
-            });
-        }
+        print_json(&meshed, started)?;
     }
     if args.stats {
-        let rows: Vec<(&str, &MeshReport)> = meshed
-            .iter()
-            .map(|m| (m.name.as_str(), &m.report))
-            .collect();
-        eprint!("{}", format_stats(&rows));
+        print_stats(&meshed);
     }
     if !args.quiet {
         let rows: Vec<MeshSummary> = meshed
@@ -300,6 +214,79 @@ fn mesh_command(args: MeshArgs, color: ColorMode) -> Result<(), Failure> {
         eprintln!("wrote {written}");
     }
     Ok(())
+}
+
+/// Meshes the blocks of a loaded file that `--only` selects and writes them to `output`
+/// (the warnings on stderr): the meshes, and where they went (the path, or `standard
+/// output`). Nothing is written if a block fails; a file is written atomically.
+pub(crate) fn mesh_and_write(
+    loaded: &Loaded,
+    args: &MeshArgs,
+    output: &Output,
+    format: Format,
+    color: ColorMode,
+) -> Result<(Vec<Meshed>, String), Failure> {
+    let selected = select(loaded, &args.only)?;
+    // Before meshing, so that the user does not wait for a refusal (a FIFO is not opened).
+    if let Output::File(path) = output {
+        target::check_output(path, &args.file).map_err(|e| Failure::io(e.to_string(), path))?;
+    }
+    let meshed = mesh_blocks(loaded, &selected, color, args.quiet, args.engine.into())?;
+    for m in &meshed {
+        for w in &m.warnings {
+            eprintln!("warning: mesh `{}`: {w}", m.name);
+        }
+    }
+
+    let meshes = named(&meshed);
+    let unit = Unit::from(args.unit);
+    let written = match output {
+        Output::File(path) => {
+            let line = Bars::new(args.quiet).writing(&path.display().to_string());
+            let options = WriteOptions {
+                unit,
+                written: Some(line.count()),
+            };
+            let result = write_mesh_file_with(path, format, &meshes, &options);
+            line.finish();
+            result
+                .map(|()| path.display().to_string())
+                .map_err(|e| Failure::io(e.to_string(), e.path()))
+        }
+        Output::Stdout => {
+            write_stdout(format, unit, &meshes).map(|()| "standard output".to_owned())
+        }
+    }?;
+    Ok((meshed, written))
+}
+
+/// Prints the `--json` report of the meshes on stdout, one line; `started` is when the
+/// command (or the rebuild) began. Err only if stdout cannot take it.
+pub(crate) fn print_json(meshed: &[Meshed], started: Instant) -> Result<(), Failure> {
+    let json = Json {
+        meshes: meshed.iter().map(Meshed::json).collect(),
+        seconds: started.elapsed().as_secs_f64(),
+    };
+    let code = super::print_stdout(&format!(
+        "{}\n",
+        serde_json::to_string(&json).unwrap_or_default()
+    ));
+    if code != 0 {
+        return Err(Failure {
+            exit: code,
+            errors: Vec::new(),
+        });
+    }
+    Ok(())
+}
+
+/// Prints the `--stats` table of the meshes on stderr.
+pub(crate) fn print_stats(meshed: &[Meshed]) {
+    let rows: Vec<(&str, &MeshReport)> = meshed
+        .iter()
+        .map(|m| (m.name.as_str(), &m.report))
+        .collect();
+    eprint!("{}", format_stats(&rows));
 }
 
 /// Writes the meshes to standard output (`-o -`). A reader that stops early is no error, as

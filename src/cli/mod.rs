@@ -15,6 +15,7 @@ pub mod mesh;
 mod render;
 mod report;
 mod signals;
+mod watch;
 
 /// Exit code: the input is wrong, or a mesh could not be completed.
 pub const EXIT_INPUT: u8 = 1;
@@ -75,6 +76,13 @@ pub enum Command {
     Eval(eval::EvalArgs),
     /// The compiled program of a surface, one instruction a line.
     Bytecode(bytecode::BytecodeArgs),
+    /// Mesh a file (and draw it, with --render) now and again at every save of it or of a
+    /// file it imports, until Ctrl-C.
+    ///
+    /// Takes every option of `mesh`; FILE and OUT are files here (not `-`). One line per
+    /// rebuild on stderr (with --json, one report per rebuild on stdout); a save with errors
+    /// prints them and leaves the last good files in place. Ctrl-C ends it with exit 0.
+    Watch(watch::WatchArgs),
 }
 
 /// Writes `text` to stdout; the exit code. A reader that stopped reading (`surfc bytecode …
@@ -110,5 +118,6 @@ pub fn run(cli: Cli) -> u8 {
         Command::Render(args) => render::run(args, color),
         Command::Eval(args) => eval::run(args, color),
         Command::Bytecode(args) => bytecode::run(args, color),
+        Command::Watch(args) => watch::run(args, color),
     }
 }

@@ -3,6 +3,7 @@
 //! only knows how to print them. Rendering never fails: a span past the end of the source is
 //! clamped rather than dropped.
 
+pub mod json;
 pub mod messages;
 pub mod suggest;
 

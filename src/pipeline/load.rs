@@ -2,7 +2,7 @@
 //! from outside (`-D NAME=VALUE`): every file read, the AST and the program, and every
 //! diagnostic. Reading files and printing are the caller's.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::diag::Diagnostic;
 use crate::sema::{self, program::Program};
@@ -27,16 +27,52 @@ pub fn analyse_file(
     source: &str,
     defines: &[(String, f64)],
 ) -> (SourceMap, Option<(ast::File, Program)>, Vec<Diagnostic>) {
+    let analysis = analyse_inputs(name, path, source, defines);
+    (analysis.map, analysis.checked, analysis.diagnostics)
+}
+
+/// What [`analyse_inputs`] found: [`analyse_file`]'s results and the files the source
+/// depends on.
+#[derive(Debug)]
+pub struct Analysis {
+    /// Every file read, the root first.
+    pub map: SourceMap,
+    /// The AST and the program, if everything parsed.
+    pub checked: Option<(ast::File, Program)>,
+    /// Every diagnostic, errors and warnings.
+    pub diagnostics: Vec<Diagnostic>,
+    /// Every file an `import` named (transitively), read or not: with the root, the files
+    /// whose change changes the result (`surfc watch` waits on them).
+    pub imports: Vec<PathBuf>,
+}
+
+/// [`analyse_file`], and the files the source imports.
+pub fn analyse_inputs(
+    name: &str,
+    path: Option<&Path>,
+    source: &str,
+    defines: &[(String, f64)],
+) -> Analysis {
     let parsed = syntax::imports::parse_with_imports(name, path, source);
-    let mut diags = parsed.diagnostics;
+    let mut diagnostics = parsed.diagnostics;
     let Some(file) = parsed.file else {
-        return (parsed.map, None, diags);
+        return Analysis {
+            map: parsed.map,
+            checked: None,
+            diagnostics,
+            imports: parsed.imports,
+        };
     };
     let options = sema::Options {
         defines: defines.to_vec(),
         imported_from: Some(parsed.imported_from),
     };
     let (program, more) = sema::check_with(&file, &options);
-    diags.extend(more);
-    (parsed.map, Some((file, program)), diags)
+    diagnostics.extend(more);
+    Analysis {
+        map: parsed.map,
+        checked: Some((file, program)),
+        diagnostics,
+        imports: parsed.imports,
+    }
 }

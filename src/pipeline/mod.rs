@@ -12,6 +12,7 @@ pub mod crease_net;
 pub mod creased;
 pub mod load;
 pub mod pieces;
+pub mod report;
 
 pub use block::{Meshed, mesh_checked, mesh_program, mesh_source, mesh_source_with, named};
 pub use build::march_settings;

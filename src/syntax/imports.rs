@@ -30,6 +30,10 @@ pub struct Parsed {
     /// Items whose span starts here or later come from imported files.
     pub imported_from: u32,
     pub diagnostics: Vec<Diagnostic>,
+    /// Every file an `import` named, as the path joined to the importing file's directory,
+    /// read or not (a missing one too): what a watcher of the source waits on besides the
+    /// root.
+    pub imports: Vec<PathBuf>,
 }
 
 /// One file on the path of imports being followed.
@@ -45,6 +49,7 @@ struct Loader {
     stack: Vec<Open>,
     done: HashSet<PathBuf>,
     items: Vec<Item>,
+    imports: Vec<PathBuf>,
 }
 
 /// Parses `root_text` (named `root_name`, in directory `root_dir`; `root_path` its path, if it
@@ -59,6 +64,7 @@ pub fn parse_with_imports(root_name: &str, root_path: Option<&Path>, root_text: 
         stack: Vec::new(),
         done: HashSet::new(),
         items: Vec::new(),
+        imports: Vec::new(),
     };
     let Some(root) = root else {
         return loader.finish(None, imported_from);
@@ -94,6 +100,7 @@ impl Loader {
             file: file.filter(|_| ok),
             imported_from,
             diagnostics: self.diagnostics,
+            imports: self.imports,
         }
     }
 
@@ -109,6 +116,9 @@ impl Loader {
     fn import(&mut self, written: &str, span: Span, dir: &Path) {
         let joined = dir.join(written);
         let shown = joined.display().to_string();
+        if !self.imports.contains(&joined) {
+            self.imports.push(joined.clone());
+        }
         let canonical = match std::fs::canonicalize(&joined) {
             Ok(p) => p,
             Err(e) => {

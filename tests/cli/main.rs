@@ -18,3 +18,4 @@ mod output_safety;
 mod progress;
 mod readme;
 mod threads;
+mod watch;
