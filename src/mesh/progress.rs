@@ -91,6 +91,15 @@ impl<'a> Tally<'a> {
 
 /// How long a line waits before it appears: quick work shows nothing.
 const DELAY: Duration = Duration::from_millis(500);
+
+/// [`DELAY`], or the milliseconds in `SURFC_PROGRESS_DELAY_MS`: the progress test shows the
+/// lines at once, so that what it reads does not depend on how fast the machine meshes.
+fn delay() -> Duration {
+    std::env::var("SURFC_PROGRESS_DELAY_MS")
+        .ok()
+        .and_then(|ms| ms.parse().ok())
+        .map_or(DELAY, Duration::from_millis)
+}
 /// How often a visible line redraws.
 const TICK: Duration = Duration::from_millis(100);
 
@@ -201,7 +210,7 @@ impl Bars {
         let (shown, watched) = (bar.clone(), Arc::clone(&count));
         let board = multi.clone();
         let timer = std::thread::spawn(move || {
-            if wait.recv_timeout(DELAY) != Err(RecvTimeoutError::Timeout) {
+            if wait.recv_timeout(delay()) != Err(RecvTimeoutError::Timeout) {
                 return;
             }
             // The clock counts from the start of the work (the bar's creation), not from when

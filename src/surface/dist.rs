@@ -45,7 +45,10 @@ const FAILED: ValueGrad = ValueGrad {
 };
 
 /// A distance is 1-Lipschitz: over a box it lies within the half-diagonal of its value at
-/// the centre. None when the centre has no foot point.
+/// the centre. None when the centre has no foot point: the bound is then unknown and the
+/// caller splits the cell, so the surfaces' `bound` does not keep that as their fault (a
+/// foot-point search from a box corner far from a product of balls may diverge where the
+/// mesh never asks for a value).
 fn lipschitz_bound(d: &mut dyn Surface, lo: DVec3, hi: DVec3) -> Option<Interval> {
     let centre = d.value((lo + hi) * 0.5);
     let r = (hi - lo).length() * 0.5;
@@ -135,7 +138,10 @@ impl Surface for ImplicitDist {
     }
 
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
-        lipschitz_bound(self, lo, hi)
+        let kept = self.fault.clone();
+        let bound = lipschitz_bound(self, lo, hi);
+        self.fault = kept;
+        bound
     }
 
     fn fault(&self) -> Option<Fault> {
@@ -219,7 +225,10 @@ impl Surface for PatchDist {
     }
 
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
-        lipschitz_bound(self, lo, hi)
+        let kept = self.fault.clone();
+        let bound = lipschitz_bound(self, lo, hi);
+        self.fault = kept;
+        bound
     }
 
     fn fault(&self) -> Option<Fault> {
@@ -292,7 +301,10 @@ impl Surface for SolidDist {
     }
 
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
-        lipschitz_bound(self, lo, hi)
+        let kept = self.fault.clone();
+        let bound = lipschitz_bound(self, lo, hi);
+        self.fault = kept;
+        bound
     }
 
     fn fault(&self) -> Option<Fault> {

@@ -24,6 +24,7 @@ use crate::compile::tape::Op;
 use crate::eval::Interval;
 use crate::eval::interval::interval;
 use crate::surface::{Fault, Surface, ValueGrad};
+use crate::values::interval_grad::IntervalGrad;
 
 /// One operation of the spine; operands are earlier terms.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -246,15 +247,6 @@ impl Spine {
             branches,
             used,
         })
-    }
-
-    /// A placeholder spine (the constant 0) for a moment's swap.
-    fn empty() -> Spine {
-        Spine {
-            terms: vec![Term::Const(0.0)],
-            branches: 0,
-            used: vec![true],
-        }
     }
 
     /// Whether any term chooses (min, max, abs or a selector): else the spine is one form.
@@ -674,7 +666,7 @@ enum Between {
 /// order, with no cap: a part of hundreds of faces has hundreds of forms, a few near each
 /// place.
 pub struct Creased {
-    spine: Spine,
+    spine: Arc<Spine>,
     branches: Vec<Box<dyn Surface>>,
     forms: Vec<Form>,
     index: HashMap<Vec<u64>, usize>,
@@ -732,7 +724,7 @@ impl Creased {
         let n = branches.len();
         let parent = (0..forms.len()).collect();
         Ok(Creased {
-            spine,
+            spine: Arc::new(spine),
             branches,
             forms,
             index,
@@ -759,7 +751,7 @@ impl Creased {
     /// The spine to evaluate at p: pruned over p's cell when `localize`d.
     fn spine_at(&mut self, p: DVec3) -> Arc<Spine> {
         let Some(size) = self.local_size else {
-            return Arc::new(self.spine.clone());
+            return self.spine.clone();
         };
         let key = (p / size).floor().to_array().map(|c| c as i64);
         if let Some(s) = self.local.get(&key) {
@@ -775,6 +767,73 @@ impl Creased {
         let pruned = Arc::new(pruned);
         self.local.insert(key, pruned.clone());
         pruned
+    }
+
+    /// The spine to prune over the box lo..hi: the pruned spine of the `localize`d cell that
+    /// holds the box, or the whole spine.
+    fn base_for(&mut self, lo: DVec3, hi: DVec3) -> Arc<Spine> {
+        if let Some(size) = self.local_size {
+            let (a, b) = ((lo / size).floor(), (hi / size).floor());
+            if a == b {
+                return self.spine_at(0.5 * (lo + hi));
+            }
+        }
+        self.spine.clone()
+    }
+
+    /// An interval holding f over the box lo..hi: the spine pruned over it, each branch
+    /// bounded by its own tape (whole line where a branch cannot bound itself).
+    pub fn bound(&mut self, lo: DVec3, hi: DVec3) -> Interval {
+        let base = self.base_for(lo, hi);
+        let branches = &mut self.branches;
+        base.pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE))
+            .1
+    }
+
+    /// f's value and partials over the box lo..hi: the value as `bound` says, the partials
+    /// the hull of those of the forms that can be chosen in the box (the generalized gradient
+    /// of a piecewise f lies in it). None when a branch cannot bound its partials or the box
+    /// holds more than `MAX_CELL_FORMS` forms.
+    pub fn bound_gradient(
+        &mut self,
+        lo: DVec3,
+        hi: DVec3,
+        axes: [bool; 3],
+    ) -> Option<IntervalGrad> {
+        let base = self.base_for(lo, hi);
+        let branches = &mut self.branches;
+        let (pruned, value) =
+            base.pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
+        let forms = pruned.candidates(None, MAX_CELL_FORMS).ok()?;
+        let mut grads: HashMap<usize, IntervalGrad> = HashMap::new();
+        let mut out: Option<IntervalGrad> = None;
+        for cand in &forms {
+            let mut acc = IntervalGrad::constant(Interval::point(cand.form.constant));
+            for &(k, c) in &cand.form.terms {
+                let g = match grads.get(&k) {
+                    Some(g) => *g,
+                    None => {
+                        let g = self.branches[k].bound_gradient(lo, hi, axes)?;
+                        grads.insert(k, g);
+                        g
+                    }
+                };
+                let c = Interval::point(c);
+                let v = interval(Op::Add, acc.v, interval(Op::Mul, g.v, c));
+                acc = acc.chain2(g, v, Interval::point(1.0), c);
+            }
+            out = Some(match out {
+                None => acc,
+                Some(o) => IntervalGrad {
+                    v: o.v.hull(acc.v),
+                    d: std::array::from_fn(|k| o.d[k].hull(acc.d[k])),
+                    defined: o.defined && acc.defined,
+                },
+            });
+        }
+        let mut g = out?;
+        g.v = value;
+        Some(g)
     }
 
     /// The values and gradients of the branches `spine` uses at p (others NaN).
@@ -950,10 +1009,10 @@ impl Creased {
         if self.enumerated {
             return Ok((0..self.forms.len()).collect());
         }
-        let spine = std::mem::replace(&mut self.spine, Spine::empty());
+        let base = self.base_for(lo, hi);
+        let branches = &mut self.branches;
         let (pruned, _) =
-            spine.pruned(&mut |k| self.branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
-        self.spine = spine;
+            base.pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
         self.forms_of(&pruned)
     }
 
@@ -1014,12 +1073,21 @@ impl Surface for Piece<'_> {
     }
 }
 
-/// f itself through its spine, as a [`Surface`] (its bound from the forms' hull).
+/// f itself through its spine, as a [`Surface`]: its value and partials bounded over a box
+/// by the spine pruned over it (the work near a place depends on the forms near it).
 pub struct Whole<'a>(pub &'a mut Creased);
 
 impl Surface for Whole<'_> {
     fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
         self.0.whole(p)
+    }
+
+    fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
+        Some(self.0.bound(lo, hi))
+    }
+
+    fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
+        self.0.bound_gradient(lo, hi, axes)
     }
 
     fn fault(&self) -> Option<Fault> {

@@ -15,11 +15,15 @@ use std::process::Command;
 use crate::common::cli;
 
 /// Two blocks that take a second or more each in the test build: a sphere from a start
-/// point (parallel pieces) and one in a box (the component search), written as an OBJ of
-/// some 100 MB.
+/// point (parallel pieces) and two in a box (the component search), written as an OBJ of
+/// some 100 MB. The box's small ball is found first, so the line counts one component
+/// while the large one is still marching (the count rises when a component is accepted,
+/// after its march: a box of one component would show it only in its last tenth of a
+/// second).
 const TWO: &str = "surface ball = sphere(2);\n\
+                   surface pair = sphere(2) * translate(sphere(0.8), (-4, 0, 0));\n\
                    mesh whole = ball { step: 0.014; start: (2, 0, 0); }\n\
-                   mesh boxed = ball { step: 0.02; box: (-3, -3, -3) .. (3, 3, 3); }\n";
+                   mesh boxed = pair { step: 0.02; box: (-5, -3, -3) .. (3, 3, 3); }\n";
 
 /// The lines as a terminal shows them one after another: split at carriage returns and
 /// newlines, escape sequences left out.
@@ -98,6 +102,7 @@ fn the_progress_lines_count_while_the_blocks_mesh() {
         .arg("/dev/null")
         .current_dir(&dir)
         .env("TERM", "xterm")
+        .env("SURFC_PROGRESS_DELAY_MS", "0")
         .output()
         .expect("script runs");
     let shown = String::from_utf8_lossy(&out.stdout).into_owned();

@@ -44,7 +44,7 @@ use crate::mesh::progress::Counts;
 use crate::surface::Surface;
 use crate::survey::faces::{FaceError, FaceSettings};
 use crate::survey::sizing::Sizing;
-use crate::survey::spine::Creased;
+use crate::survey::spine::{Creased, Whole};
 use join::{Side, chain, check_joined, check_smooth};
 pub(crate) use join::{merge, merge_at};
 use trace::Tracer;
@@ -355,8 +355,10 @@ pub fn mesh_creased(
         max_triangles: limit,
         ..marching
     };
+    // The search bounds f over its cells through the spine pruned there (the forms near a
+    // cell, not the whole tape); its marches run on `fork`'s tapes, or on the spine's f.
     let found = components::mesh_components_beside(
-        whole,
+        &mut Whole(t.c),
         fork,
         marching,
         bbox,
