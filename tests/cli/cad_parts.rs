@@ -15,8 +15,9 @@
 //!   χ = 2 − 2·80, every triangle ≥ 30°.
 //!
 //! Today surfc refuses these, so the checks are asserted only with `SURFC_CAD_STRICT=1`
-//! (the crease rework switches it on); without it each test prints what surfc says. A further
-//! test shows that the sweep's judge does tell wrong meshes from right ones.
+//! (the crease rework switches it on); without it each test prints what surfc says and
+//! asserts only what the sweep always asserts (no wrong mesh, no crash, no run over the
+//! limit). A further test shows that the sweep's judge does tell wrong meshes from right ones.
 
 use crate::common;
 
@@ -82,6 +83,17 @@ fn mesh(part: &Part, step: f64, dir: &Path) -> Judged {
     println!(
         "{} at step {step}: {said} ({:.2} s)",
         part.what, judged.seconds
+    );
+    // As in the sweep, always: no wrong mesh, no crash, no run over the limit.
+    assert!(
+        !matches!(
+            judged.outcome,
+            Outcome::Wrong(_) | Outcome::Crash(_) | Outcome::Timeout
+        ),
+        "{} at step {step}: {:?}\n{}",
+        part.what,
+        judged.outcome,
+        judged.source
     );
     judged
 }
