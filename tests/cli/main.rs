@@ -9,6 +9,8 @@
 mod common;
 
 mod bounded_work;
+mod cad_parts;
+mod cad_sweep;
 mod cli_compose;
 mod csg_cli;
 mod eval_cli;

@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod build;
+pub mod cad;
 pub mod cli;
 pub mod csg;
 pub mod rng;

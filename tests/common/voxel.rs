@@ -47,16 +47,63 @@ pub fn solid_count(f: impl Fn(DVec3) -> f64, lo: DVec3, hi: DVec3, n: usize) -> 
     count(&sample(f, lo, hi, n), n)
 }
 
+/// A regular grid of sample points: `cells[a]` cells of side `spacing[a]` along axis a from
+/// `origin`, so `cells[a] + 1` vertices along it. Cubic cells over a box that is not a cube
+/// (a plate) sample it without wasting vertices on its thin axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lattice {
+    pub origin: DVec3,
+    pub spacing: DVec3,
+    pub cells: [usize; 3],
+}
+
+impl Lattice {
+    /// Cubic cells of side `h` from `origin`, `cells` along each axis.
+    pub fn cubic(origin: DVec3, h: f64, cells: [usize; 3]) -> Lattice {
+        Lattice {
+            origin,
+            spacing: DVec3::splat(h),
+            cells,
+        }
+    }
+
+    /// The grid vertex (i, j, k).
+    pub fn point(&self, i: usize, j: usize, k: usize) -> DVec3 {
+        self.origin + self.spacing * DVec3::new(i as f64, j as f64, k as f64)
+    }
+
+    /// Grid vertices along each axis.
+    fn dims(&self) -> [usize; 3] {
+        self.cells.map(|c| c + 1)
+    }
+
+    /// Grid vertices in all.
+    pub fn vertices(&self) -> usize {
+        self.dims().iter().product()
+    }
+}
+
 /// Whether each of the (n+1)³ grid vertices is inside, x fastest.
 fn sample(f: impl Fn(DVec3) -> f64, lo: DVec3, hi: DVec3, n: usize) -> Vec<bool> {
     assert!(n >= 2, "a grid needs at least two cells a side");
-    let m = n + 1;
-    let h = (hi - lo) / n as f64;
-    let mut inside = Vec::with_capacity(m * m * m);
-    for k in 0..m {
-        for j in 0..m {
-            for i in 0..m {
-                inside.push(f(lo + h * DVec3::new(i as f64, j as f64, k as f64)) < 0.0);
+    sample_lattice(
+        f,
+        &Lattice {
+            origin: lo,
+            spacing: (hi - lo) / n as f64,
+            cells: [n; 3],
+        },
+    )
+}
+
+/// Whether each grid vertex of `lattice` is inside, x fastest.
+fn sample_lattice(f: impl Fn(DVec3) -> f64, lattice: &Lattice) -> Vec<bool> {
+    let [mx, my, mz] = lattice.dims();
+    let mut inside = Vec::with_capacity(mx * my * mz);
+    for k in 0..mz {
+        for j in 0..my {
+            for i in 0..mx {
+                inside.push(f(lattice.point(i, j, k)) < 0.0);
             }
         }
     }
@@ -65,15 +112,23 @@ fn sample(f: impl Fn(DVec3) -> f64, lo: DVec3, hi: DVec3, n: usize) -> Vec<bool>
 
 /// The counts of the inside vertices of an (n+1)³ sampling.
 fn count(inside: &[bool], n: usize) -> SolidCount {
-    let m = n + 1;
-    let idx = |i: usize, j: usize, k: usize| (k * m + j) * m + i;
+    count_dims(inside, [n + 1; 3])
+}
+
+/// The counts of the inside vertices of a sampling with `dims` vertices along the axes.
+fn count_dims(inside: &[bool], dims: [usize; 3]) -> SolidCount {
+    let [mx, my, mz] = dims;
+    let idx = |i: usize, j: usize, k: usize| (k * my + j) * mx + i;
     let mut touches_box = false;
     let mut inside_box: Option<([usize; 3], [usize; 3])> = None;
-    for k in 0..m {
-        for j in 0..m {
-            for i in 0..m {
+    for k in 0..mz {
+        for j in 0..my {
+            for i in 0..mx {
                 if inside[idx(i, j, k)] {
-                    touches_box |= [i, j, k].iter().any(|&c| c == 0 || c == n);
+                    touches_box |= [i, j, k]
+                        .iter()
+                        .zip(dims)
+                        .any(|(&c, m)| c == 0 || c + 1 == m);
                     let (lo, hi) = inside_box.get_or_insert(([i, j, k], [i, j, k]));
                     for (a, c) in [i, j, k].into_iter().enumerate() {
                         lo[a] = lo[a].min(c);
@@ -85,14 +140,14 @@ fn count(inside: &[bool], n: usize) -> SolidCount {
     }
     let at = |i: usize, j: usize, k: usize| inside[idx(i, j, k)];
     let (mut v, mut e, mut f2, mut c) = (0i64, 0i64, 0i64, 0i64);
-    for k in 0..m {
-        for j in 0..m {
-            for i in 0..m {
+    for k in 0..mz {
+        for j in 0..my {
+            for i in 0..mx {
                 if !at(i, j, k) {
                     continue;
                 }
                 v += 1;
-                let (xi, yj, zk) = (i + 1 < m, j + 1 < m, k + 1 < m);
+                let (xi, yj, zk) = (i + 1 < mx, j + 1 < my, k + 1 < mz);
                 let x = xi && at(i + 1, j, k);
                 let y = yj && at(i, j + 1, k);
                 let z = zk && at(i, j, k + 1);
@@ -110,8 +165,8 @@ fn count(inside: &[bool], n: usize) -> SolidCount {
     SolidCount {
         euler: v - e + f2 - c,
         inside_vertices: v,
-        components: components(inside, m, true, false),
-        outside_components: components(inside, m, false, true),
+        components: components(inside, dims, true, false),
+        outside_components: components(inside, dims, false, true),
         touches_box,
         inside: inside_box,
     }
@@ -119,9 +174,9 @@ fn count(inside: &[bool], n: usize) -> SolidCount {
 
 /// Connected components of the grid vertices whose inside flag is `side`: joined along grid
 /// edges (6-neighbours), or across whole cubes too (26-neighbours) when `diagonal`.
-fn components(inside: &[bool], m: usize, side: bool, diagonal: bool) -> usize {
+fn components(inside: &[bool], dims: [usize; 3], side: bool, diagonal: bool) -> usize {
     let mut count = 0;
-    each_component(inside, m, side, diagonal, |_| count += 1);
+    each_component(inside, dims, side, diagonal, |_| count += 1);
     count
 }
 
@@ -129,7 +184,7 @@ fn components(inside: &[bool], m: usize, side: bool, diagonal: bool) -> usize {
 /// inside flag is `side` (joined as in `components`).
 fn each_component(
     inside: &[bool],
-    m: usize,
+    dims: [usize; 3],
     side: bool,
     diagonal: bool,
     mut visit: impl FnMut(&[usize]),
@@ -144,7 +199,7 @@ fn each_component(
             nonzero > 0 && (diagonal || nonzero == 1)
         })
         .collect();
-    let m = m as i64;
+    let [mx, my, mz] = dims.map(|d| d as i64);
     for start in 0..inside.len() {
         if inside[start] != side || seen[start] {
             continue;
@@ -155,13 +210,13 @@ fn each_component(
         while let Some(s) = stack.pop() {
             members.push(s);
             let s = s as i64;
-            let at = [s % m, (s / m) % m, s / (m * m)];
+            let at = [s % mx, (s / mx) % my, s / (mx * my)];
             for o in &offsets {
                 let n = [at[0] + o[0], at[1] + o[1], at[2] + o[2]];
-                if n.iter().any(|&c| c < 0 || c >= m) {
+                if n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= mx || n[1] >= my || n[2] >= mz {
                     continue;
                 }
-                let t = ((n[2] * m + n[1]) * m + n[0]) as usize;
+                let t = ((n[2] * my + n[1]) * mx + n[0]) as usize;
                 if inside[t] == side && !seen[t] {
                     seen[t] = true;
                     stack.push(t);
@@ -190,14 +245,32 @@ pub fn two_readings(
     n: usize,
     smallest: usize,
 ) -> (SolidCount, SolidCount) {
-    let sampled = sample(f, lo, hi, n);
-    let m = n + 1;
+    assert!(n >= 2, "a grid needs at least two cells a side");
+    two_readings_on(
+        f,
+        &Lattice {
+            origin: lo,
+            spacing: (hi - lo) / n as f64,
+            cells: [n; 3],
+        },
+        smallest,
+    )
+}
+
+/// `two_readings` on any lattice (cells of other numbers along the axes).
+pub fn two_readings_on(
+    f: impl Fn(DVec3) -> f64,
+    lattice: &Lattice,
+    smallest: usize,
+) -> (SolidCount, SolidCount) {
+    let sampled = sample_lattice(f, lattice);
+    let dims = lattice.dims();
     let cleaned = |inside_diagonal: bool| {
         let mut cells = sampled.clone();
         for side in [true, false] {
             let diagonal = side == inside_diagonal;
             let mut crumbs = Vec::new();
-            each_component(&cells, m, side, diagonal, |c| {
+            each_component(&cells, dims, side, diagonal, |c| {
                 if c.len() < smallest {
                     crumbs.extend_from_slice(c);
                 }
@@ -210,5 +283,5 @@ pub fn two_readings(
     };
     let inside = cleaned(false);
     let outside: Vec<bool> = cleaned(true).iter().map(|b| !b).collect();
-    (count(&inside, n), count(&outside, n))
+    (count_dims(&inside, dims), count_dims(&outside, dims))
 }
