@@ -293,6 +293,10 @@ struct Tried {
 struct Search<'a> {
     pieces: &'a mut dyn Pieces,
     x: DVec3,
+    /// The sign of f(x): the side a face foot must see x on.
+    sign: f64,
+    /// Distances within this are one (`on_surface` times the scale).
+    floor: f64,
     tol: &'a SolidFootTolerance,
     best: Option<(Support, Candidate)>,
     solves: u32,
@@ -370,6 +374,8 @@ pub fn solid_foot_in(
     let mut search = Search {
         pieces,
         x,
+        sign,
+        floor,
         tol,
         best: None,
         solves: 0,
@@ -619,11 +625,22 @@ impl Search<'_> {
     }
 
     /// Keeps c if it is the nearest so far (ties: the smaller support, so that the order in
-    /// which candidates were found does not matter).
+    /// which candidates were found does not matter). Of two feet at one distance, a face
+    /// that sees x from its own side beats one that sees it from the wrong side: where two
+    /// solids touch (a boss standing on a plate), the boss's cap lies in the plate's face
+    /// with the opposite normal, and a point under the plate's face has both as its foot.
     fn consider(&mut self, support: Support, c: Candidate) {
-        let nearer = self
-            .best
-            .is_none_or(|(s, b)| (c.distance, support) < (b.distance, s));
+        let wrong = |s: Support, c: &Candidate| {
+            matches!(s, Support::Face(_))
+                && self.sign * (self.x - c.point).dot(c.normal) < -self.floor
+        };
+        let nearer = self.best.is_none_or(|(s, b)| {
+            if (c.distance - b.distance).abs() <= self.floor && wrong(s, &b) != wrong(support, &c) {
+                wrong(s, &b)
+            } else {
+                (c.distance, support) < (b.distance, s)
+            }
+        });
         if nearer {
             self.best = Some((support, c));
         }

@@ -273,6 +273,7 @@ fn two_boxes_sharing_a_face_are_one_block() {
 /// Must-show 4: a plate 2×4×0.2 with 80 through holes of radius 0.05 on an 8×10 grid, at
 /// step 0.02: right with χ = 2 − 2·80, every triangle ≥ 30°.
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --ignored)"]
 fn plate_with_80_holes() {
     let dir = common::cli::scratch("cad-80-holes");
     let mut parts = vec![block([0.0, 0.0, 0.0], [2.0, 4.0, 0.2])];

@@ -200,6 +200,40 @@ pub fn post(r: i64, x: i64, y: i64, z0: i64, h: i64) -> Solid {
 }
 
 impl Solid {
+    /// The planes n·p + c of the solid's top-level `max` (a box's six faces, a cylinder's
+    /// caps), moved and turned with it; none for other solids.
+    fn planes(&self) -> Vec<(DVec3, f64)> {
+        match self {
+            Solid::Box { lo, hi } => vec![
+                (-DVec3::X, lo.x),
+                (DVec3::X, -hi.x),
+                (-DVec3::Y, lo.y),
+                (DVec3::Y, -hi.y),
+                (-DVec3::Z, lo.z),
+                (DVec3::Z, -hi.z),
+            ],
+            Solid::Cylinder { h, .. } => vec![(DVec3::Z, -0.5 * h), (-DVec3::Z, -0.5 * h)],
+            Solid::Translate(s, d) => s
+                .planes()
+                .into_iter()
+                .map(|(n, c)| (n, c - n.dot(*d)))
+                .collect(),
+            Solid::Rotate(s, axis, angle) => {
+                let m = rotation(*axis, -angle.value);
+                s.planes()
+                    .into_iter()
+                    .map(|(n, c)| {
+                        let t = DVec3::from_array(std::array::from_fn(|j| {
+                            (0..3).map(|i| m[i][j] * n[i]).sum()
+                        }));
+                        (t, c)
+                    })
+                    .collect()
+            }
+            _ => Vec::new(),
+        }
+    }
+
     /// The solid's function as the language computes it (docs/language.md, *Solids*),
     /// natively.
     pub fn value(&self, p: DVec3) -> f64 {
@@ -226,7 +260,20 @@ impl Solid {
                 .iter()
                 .map(|s| -s.value(p))
                 .fold(v[0].value(p), f64::max),
-            Solid::SmoothUnion(a, b, r) => smin(a.value(p), b.value(p), *r),
+            Solid::SmoothUnion(a, b, r) => {
+                // Clipped by the faces both operands have, as surfc compiles it
+                // (src/compile/flush.rs): flush faces stay flat.
+                let planes = b.planes();
+                a.planes()
+                    .into_iter()
+                    .filter(|(n, c)| {
+                        planes
+                            .iter()
+                            .any(|(m, d)| (*n - *m).length() < 1e-9 && (c - d).abs() < 1e-9)
+                    })
+                    .map(|(n, c)| n.dot(p) + c)
+                    .fold(smin(a.value(p), b.value(p), *r), f64::max)
+            }
             Solid::Offset(s, d) => s.distance(p) - d,
             Solid::Translate(s, d) => s.value(p - *d),
             Solid::Rotate(s, axis, angle) => s.value(apply(&rotation(*axis, -angle.value), p)),
@@ -1753,7 +1800,21 @@ pub fn reference(part: &Part) -> Result<Reference, String> {
     }
     let h = lattice.spacing.x;
     let (ilo, ihi) = solid.inside.expect("the grids saw the solid");
-    let area = shell_area(part, &lattice);
+    // The area on a grid of its own, finer than the topology's where the part is large
+    // against its smallest feature: the estimate's error is of the order of the spacing
+    // times the length of the edges (a quarter of the feature would be a few per cent).
+    let area_h = h.min((bhi - blo).length() / 200.0);
+    let area_cells = ((bhi - blo) / area_h)
+        .to_array()
+        .map(|c| c.ceil() as usize + 5);
+    let area = shell_area(
+        part,
+        &Lattice::cubic(
+            blo - DVec3::splat(2.0 * area_h) - 0.3 * area_h,
+            area_h,
+            area_cells,
+        ),
+    );
     Ok(Reference {
         euler,
         components,
@@ -1766,12 +1827,21 @@ pub fn reference(part: &Part) -> Result<Reference, String> {
     })
 }
 
-/// The area of the part's surface: the grid vertices of `lattice` within a voxel h of it
-/// (|f|/|∇f| < h, the gradient by central differences) fill a shell of volume 2h·area.
+/// The area of the part's surface from the grid vertices of `lattice` near it: each vertex
+/// at distance d < h (projected onto f = 0 along ∇f, by central differences) weighs the hat
+/// 1 − d/h, and the weights times h² sum to the area. Along a face's normal the hats of
+/// the grid planes sum to one whatever the face's offset from them (a count of the vertices
+/// within h would see one or two planes of a face parallel to the grid, ±50 %).
+/// Only where the surface is one between inside and outside: among the vertex and its 26
+/// neighbours (±h along each axis) one is inside and one outside, as a plane nearer than h
+/// always separates two of them. A hole flush with a face leaves f = 0 on the disk across
+/// its mouth (max(plate, −cylinder) with both 0 there) with f ≥ 0 on either side, a zero
+/// set that is not the solid's surface and is left out but for a band of about h at its
+/// rim.
 fn shell_area(part: &Part, lattice: &Lattice) -> f64 {
     let h = lattice.spacing.x;
     let e = 1e-3 * h;
-    let mut count = 0usize;
+    let mut weight = 0.0;
     for k in 0..=lattice.cells[2] {
         for j in 0..=lattice.cells[1] {
             for i in 0..=lattice.cells[0] {
@@ -1780,16 +1850,51 @@ fn shell_area(part: &Part, lattice: &Lattice) -> f64 {
                 if v.abs() >= 2.0 * h {
                     continue;
                 }
-                let g = DVec3::new(
-                    part.value(p + DVec3::X * e) - part.value(p - DVec3::X * e),
-                    part.value(p + DVec3::Y * e) - part.value(p - DVec3::Y * e),
-                    part.value(p + DVec3::Z * e) - part.value(p - DVec3::Z * e),
-                ) / (2.0 * e);
-                if v.abs() < h * g.length() {
-                    count += 1;
+                let grad = |q: DVec3| {
+                    DVec3::new(
+                        part.value(q + DVec3::X * e) - part.value(q - DVec3::X * e),
+                        part.value(q + DVec3::Y * e) - part.value(q - DVec3::Y * e),
+                        part.value(q + DVec3::Z * e) - part.value(q - DVec3::Z * e),
+                    ) / (2.0 * e)
+                };
+                let g = grad(p);
+                if v.abs() >= h * g.length() {
+                    continue;
+                }
+                // The distance to f = 0 by a few projections along ∇f: |f|/|∇f| of a box's
+                // max is the distance to the nearest face plane, short of the distance to
+                // an edge beyond it (a square around a convex edge instead of a quarter
+                // disk, an excess of about h per length of edge).
+                let mut q = p;
+                let mut fq = v;
+                for _ in 0..4 {
+                    let gq = grad(q);
+                    if fq == 0.0 || gq.length() == 0.0 {
+                        break;
+                    }
+                    q -= gq * (fq / gq.length_squared());
+                    fq = part.value(q);
+                }
+                let d = (p - q).length();
+                if d >= h || fq.abs() > 1e-9 * h {
+                    continue;
+                }
+                let (mut inside, mut outside) = (false, false);
+                for s in 0..27 {
+                    let offset = DVec3::new(
+                        f64::from(s % 3) - 1.0,
+                        f64::from(s / 3 % 3) - 1.0,
+                        f64::from(s / 9) - 1.0,
+                    );
+                    let w = part.value(p + h * offset);
+                    inside |= w < 0.0;
+                    outside |= w > 0.0;
+                }
+                if inside && outside {
+                    weight += 1.0 - d / h;
                 }
             }
         }
     }
-    count as f64 * h * h / 2.0
+    weight * h * h
 }
