@@ -1,0 +1,157 @@
+//! The cover of the component search: which places the meshes made so far already cover
+//! (a seed there starts no new component) and which cells they touch, from the triangles
+//! hashed by centroid in one grid per size level.
+
+use std::collections::{BTreeMap, HashMap};
+
+use glam::DVec3;
+
+use crate::mesh::Mesh;
+use crate::mesh::check::closest_on_triangle;
+use crate::survey::cells::Cell;
+
+/// The triangles meshed so far, hashed by the centroid in grids by size: a triangle whose
+/// longest edge is at most `step · 2^l` (and above half that) is in the grid of cells of that
+/// side. A query then looks at a few cells of each grid, each holding a few triangles, also
+/// where the local step made triangles far below the step (a thin shell at step/50 put
+/// thousands of triangles into one cell of side `step`, and the search spent minutes here).
+pub(super) struct Cover {
+    step: f64,
+    /// Per size level l: the cells (of side `step · 2^l`) and their triangles.
+    levels: BTreeMap<i32, HashMap<[i64; 3], Vec<u32>>>,
+}
+
+/// Size levels are clamped to this range (2⁻⁴⁰ to 2⁸ steps): a degenerate or huge triangle
+/// goes to an end level, where it is still found (the cells searched cover its reach).
+const COVER_LEVELS: (i32, i32) = (-40, 8);
+
+impl Cover {
+    pub(super) fn new(step: f64) -> Cover {
+        Cover {
+            step,
+            levels: BTreeMap::new(),
+        }
+    }
+
+    fn side(&self, level: i32) -> f64 {
+        self.step * 2f64.powi(level)
+    }
+
+    fn key(side: f64, p: DVec3) -> [i64; 3] {
+        // Saturating float-to-int casts: a point far out stays in an edge cell.
+        (p / side).floor().to_array().map(|c| c as i64)
+    }
+
+    /// Appends `part` to `mesh` and hashes its triangles.
+    pub(super) fn add(&mut self, mesh: &mut Mesh, part: &Mesh) {
+        let offset = mesh.vertices.len() as u32;
+        let first = mesh.triangles.len() as u32;
+        mesh.vertices.extend_from_slice(&part.vertices);
+        mesh.normals.extend_from_slice(&part.normals);
+        mesh.sides
+            .extend(part.sides.iter().map(|s| crate::mesh::Side {
+                vertex: s.vertex + offset,
+                ..*s
+            }));
+        mesh.triangles
+            .extend(part.triangles.iter().map(|t| t.map(|v| v + offset)));
+        for (t, tri) in mesh.triangles.iter().enumerate().skip(first as usize) {
+            let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
+            let edge = a.distance(b).max(b.distance(c)).max(c.distance(a));
+            let level =
+                ((edge / self.step).log2().ceil() as i32).clamp(COVER_LEVELS.0, COVER_LEVELS.1);
+            let side = self.side(level);
+            self.levels
+                .entry(level)
+                .or_default()
+                .entry(Cover::key(side, (a + b + c) / 3.0))
+                .or_default()
+                .push(t as u32);
+        }
+    }
+
+    /// Calls `found` with the triangles of every level whose centroid cell meets the box
+    /// `lo .. hi` grown by `grow(side)` (in model units), until it returns true. A level's
+    /// cells are looked up one by one, or its occupied cells scanned where that is fewer.
+    pub(super) fn any_near(
+        &self,
+        lo: DVec3,
+        hi: DVec3,
+        grow: impl Fn(f64) -> f64,
+        mut found: impl FnMut(&[u32]) -> bool,
+    ) -> bool {
+        for (&level, cells) in &self.levels {
+            let side = self.side(level);
+            let g = DVec3::splat(grow(side));
+            let (a, b) = (Cover::key(side, lo - g), Cover::key(side, hi + g));
+            let span = (0..3).fold(1.0, |n, i| n * ((b[i] - a[i]) as f64 + 1.0));
+            let inside = |k: &[i64; 3]| (0..3).all(|i| a[i] <= k[i] && k[i] <= b[i]);
+            if span > cells.len() as f64 {
+                if cells.iter().any(|(k, ts)| inside(k) && found(ts)) {
+                    return true;
+                }
+                continue;
+            }
+            for k in a[2]..=b[2] {
+                for j in a[1]..=b[1] {
+                    for i in a[0]..=b[0] {
+                        if cells.get(&[i, j, k]).is_some_and(|ts| found(ts)) {
+                            return true;
+                        }
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    /// Whether a vertex of `mesh` lies in the cell.
+    pub(super) fn touches(&self, mesh: &Mesh, cell: Cell) -> bool {
+        let inside = |v: &u32| {
+            let p = mesh.vertices[*v as usize];
+            p.cmpge(cell.lo).all() && p.cmple(cell.hi).all()
+        };
+        // A vertex is at most the longest edge (at most the level's side) from the centroid.
+        self.any_near(
+            cell.lo,
+            cell.hi,
+            |side| side,
+            |ts| {
+                ts.iter()
+                    .any(|&t| mesh.triangles[t as usize].iter().any(inside))
+            },
+        )
+    }
+
+    /// Whether a triangle of `mesh` lies within `factor · max(h, its longest edge)` of `p`
+    /// with a normal agreeing with `normal` (cosine above `cos`). The reach follows the
+    /// mesh's own edges as well as the local step `h` at p: a seed on a crease (where the
+    /// local step measures the edge's kink, not the surface) is still within reach of the
+    /// pieces meshed up to it, and another sheet is farther from a triangle than its edges
+    /// (the marcher's thickness bound keeps it 2.5 edges away).
+    pub(super) fn covered(
+        &self,
+        mesh: &Mesh,
+        p: DVec3,
+        normal: DVec3,
+        factor: f64,
+        h: f64,
+        cos: f64,
+    ) -> bool {
+        // A triangle of a level (longest edge at most its side) within reach has its
+        // centroid within the reach + its longest edge of p.
+        let grow = |side: f64| factor * h.max(side) + side;
+        self.any_near(p, p, grow, |ts| {
+            ts.iter().any(|&t| {
+                let [a, b, c] = mesh.triangles[t as usize].map(|v| mesh.vertices[v as usize]);
+                let n = (b - a).cross(c - a).normalize_or_zero();
+                if n.dot(normal) <= cos {
+                    return false;
+                }
+                let edge = a.distance(b).max(b.distance(c)).max(c.distance(a));
+                let reach = factor * h.max(edge);
+                (closest_on_triangle(p, a, b, c) - p).length() < reach
+            })
+        })
+    }
+}
