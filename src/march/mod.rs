@@ -305,8 +305,22 @@ pub fn march_verified(
     settings: &MarchSettings,
     progress: Option<&std::sync::atomic::AtomicU64>,
 ) -> Result<Marched, MarchError> {
+    march_verified_capped(surface, fork, input, settings, progress, &[])
+}
+
+/// [`march_verified`] with the local step bounded by `caps` from the start (graded from
+/// each): what the caller knows of the surface that the marcher's probes do not see, such
+/// as the width of a narrow face between two creases (`pipeline::crease_net`).
+pub fn march_verified_capped(
+    surface: &mut dyn Surface,
+    fork: Option<&Fork<'_>>,
+    input: &MarchInput,
+    settings: &MarchSettings,
+    progress: Option<&std::sync::atomic::AtomicU64>,
+    caps: &[Cap],
+) -> Result<Marched, MarchError> {
     let tally = Tally::new(progress);
-    let result = verified(surface, fork, input, settings, &tally);
+    let result = verified(surface, fork, input, settings, &tally, caps);
     match &result {
         Ok(m) => tally.set(m.mesh.triangles.len() as u64),
         Err(_) => tally.retract(),
@@ -321,6 +335,7 @@ fn verified(
     input: &MarchInput,
     settings: &MarchSettings,
     tally: &Tally<'_>,
+    caps: &[Cap],
 ) -> Result<Marched, MarchError> {
     let step = input.step;
     if !(step.is_finite() && step > 0.0) {
@@ -331,6 +346,9 @@ fn verified(
         return Err(MarchError::InvalidTolerance { tolerance });
     }
     let mut sizing = Sizing::of_mesh(step, tolerance, input.uniform, settings.sizing);
+    if !caps.is_empty() && !input.uniform {
+        sizing.add_caps(caps.iter().copied());
+    }
     let mut round = 0;
     let mut peak_triangles = 0;
     // The first flaw that asked for the current re-march: a re-march that fails says what it

@@ -812,15 +812,23 @@ fn generated_parts_mesh_right_or_refuse_with_a_place() {
                 }
             }
             println!("{line}");
-            if let (Some(d), false) = (
+            // Dumped: every run not right, and right runs below the quality bars (as
+            // `…_quality.surf`).
+            let poor = matches!(judged.outcome, Outcome::Right)
+                && judged
+                    .quality
+                    .as_ref()
+                    .is_some_and(|q| q.failure().is_some());
+            if let (Some(d), true) = (
                 &dump,
-                matches!(judged.outcome, Outcome::Right | Outcome::Skipped(_)),
+                poor || !matches!(judged.outcome, Outcome::Right | Outcome::Skipped(_)),
             ) {
-                let path = d.join(format!(
-                    "{case:04}_{}_{multiple}_{}.surf",
-                    this.name(),
+                let name = if poor {
+                    "quality"
+                } else {
                     judged.outcome.name()
-                ));
+                };
+                let path = d.join(format!("{case:04}_{}_{multiple}_{name}.surf", this.name()));
                 let why = match &judged.outcome {
                     Outcome::Refused { code, note, .. } => format!("{code} {note}"),
                     Outcome::Wrong(w) | Outcome::Crash(w) | Outcome::Unplaced(w) => w.clone(),

@@ -11,6 +11,10 @@ use super::{DELAUNAY_MARGIN, FOLD_COS, NONE, Stage, midpoint_within, prev};
 /// Whether the angle opposite half-edge e (in its triangle) or opposite its twin f (in
 /// theirs) is obtuse, by the triangles' `Stage::obtuse_corners` masks: the corner opposite
 /// a half-edge is the next after its end.
+/// The sine of a triangle's smallest angle below which an edge between two polygon
+/// vertices beside it may be flipped (about 1°).
+const SLIVER_SIN: f64 = 0.017;
+
 fn obtuse_opposite(obtuse: &[u8], e: u32, f: u32) -> bool {
     let opposite = |g: u32| 1u8 << ((g + 2) % 3);
     obtuse[(e / 3) as usize] & opposite(e) != 0 || obtuse[(f / 3) as usize] & opposite(f) != 0
@@ -39,7 +43,16 @@ impl Stage<'_> {
         let (a, b) = (self.org(e), self.dst(e));
         let c = self.org(prev(e));
         let d = self.org(prev(f));
-        if c == d || self.constrained(a, b) {
+        // An edge between two polygon vertices is kept, unless a triangle beside it is a
+        // sliver: three polygon vertices in line on a crease (a polygon edge split at its
+        // middle) make a triangle of no area over an edge that is no polygon edge (it has a
+        // twin), and only its flip removes it.
+        if c == d
+            || (self.constrained(a, b)
+                && (self.frozen[a as usize]
+                    || self.frozen[b as usize]
+                    || self.q([a, b, c]).min(self.q([b, a, d])) >= SLIVER_SIN))
+        {
             return false;
         }
         let (nt, nu) = ([a, d, c], [d, b, c]);

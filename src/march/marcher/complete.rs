@@ -4,6 +4,10 @@
 
 use glam::DVec3;
 
+/// The smallest angle (degrees) a triangle moved by a collapse may keep, unless the sliver
+/// the collapse avoids is thinner still.
+const COLLAPSED_MIN: f64 = 5.0;
+
 use super::{GRADING_RETRIES, Marcher};
 use crate::march::MarchError;
 use crate::march::angle::{polar, triangle_count};
@@ -286,7 +290,9 @@ impl Marcher<'_> {
         {
             return false;
         }
-        // Moving the triangles' corner from `gone` to `keep` must not flip any of them.
+        // Moving the triangles' corner from `gone` to `keep` must not flip any of them, nor
+        // flatten one into a sliver worse than the one the collapse avoids (`keep` a polygon
+        // vertex in line with two others: a triangle of three points on a crease).
         let pk = self.pos[keep.index()];
         let flips = tris.iter().filter(|t| t.contains(&gone.0)).any(|t| {
             let [a, b, c] = t.map(|v| {
@@ -297,7 +303,9 @@ impl Marcher<'_> {
                 }
             });
             let n = t.iter().map(|&v| self.normal[v as usize]).sum::<DVec3>();
+            let [x, y, z] = crate::mesh::quality::triangle_angles(a, b, c);
             (b - a).cross(c - a).dot(n) <= 0.0
+                || x.min(y).min(z) < self.angle[m.index()].to_degrees().min(COLLAPSED_MIN)
         });
         if flips {
             return false;

@@ -32,6 +32,7 @@
 
 mod join;
 mod trace;
+mod width;
 
 use std::collections::BTreeMap;
 
@@ -43,7 +44,7 @@ use crate::mesh::Mesh;
 use crate::mesh::progress::Counts;
 use crate::surface::Surface;
 use crate::survey::faces::{FaceError, FaceSettings};
-use crate::survey::sizing::Sizing;
+use crate::survey::sizing::{Cap, Sizing};
 use crate::survey::spine::{Creased, Whole};
 use join::{Side, chain, check_joined, check_smooth};
 pub(crate) use join::{merge, merge_at};
@@ -251,9 +252,20 @@ pub fn mesh_creased(
     let tolerance = marching
         .tolerance
         .unwrap_or(march_settings.tolerance * step);
-    let sizing = Sizing::of_mesh(step, tolerance, marching.uniform, march_settings.sizing);
+    let mut sizing = Sizing::of_mesh(step, tolerance, marching.uniform, march_settings.sizing);
     let min_edge = march_settings.polygon_edge_min * step;
     let traced = std::mem::take(&mut t.traced);
+    // Faces narrower than the step beside a crease: their width caps the local step of the
+    // polygons and of the pieces' marches (the paper's fixed step keeps the step).
+    let caps: Vec<Cap> = if marching.uniform {
+        Vec::new()
+    } else {
+        traced
+            .iter()
+            .flat_map(|tr| width::caps(&mut t, tr))
+            .collect()
+    };
+    sizing.add_caps(caps.iter().copied());
     let mut polygons = Vec::with_capacity(traced.len());
     // Per face (the smallest form of its class): its directed polygons with their corners.
     let mut sides: BTreeMap<usize, Vec<Side>> = BTreeMap::new();
@@ -327,12 +339,13 @@ pub fn mesh_creased(
         }
         let mut tried: Result<march::Marched, CreaseError> = Err(CreaseError::Chain { at });
         for &form in &forms {
-            tried = march::march_verified(
+            tried = march::march_verified_capped(
                 &mut t.c.piece(form),
                 None,
                 &input,
                 &piece_settings,
                 progress.map(|p| &p.triangles),
+                &caps,
             )
             .map_err(|source| CreaseError::March { at, source })
             .and_then(|marched| {
