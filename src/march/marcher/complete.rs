@@ -8,10 +8,13 @@ use glam::DVec3;
 /// the collapse avoids is thinner still.
 const COLLAPSED_MIN: f64 = 5.0;
 
+/// The smallest angle (degrees) of a fan that closes a small polygon (`close_fan`).
+const FAN_MIN_ANGLE: f64 = 30.0;
+
 use super::{GRADING_RETRIES, Marcher};
 use crate::march::MarchError;
 use crate::march::angle::{polar, triangle_count};
-use crate::march::ring::{NodeId, PointId};
+use crate::march::ring::{FrontId, NodeId, PointId};
 use crate::solve::{SurfacePoint, surface_point, tangent_frame};
 
 impl Marcher<'_> {
@@ -260,6 +263,56 @@ impl Marcher<'_> {
             }
         }
         Ok(())
+    }
+
+    /// A front of five to eight given polygon points and nothing else (a blind hole's floor,
+    /// a rod's end, a small face between creases), closed by a fan around one new point at
+    /// its centre where every triangle of the fan has all angles of at least
+    /// `FAN_MIN_ANGLE` and faces ∇f: completions one point at a time leave a thin triangle
+    /// in such a polygon (13.8° on a hole's floor whose radius is the step). False, with
+    /// nothing changed, where the fan would not be that good.
+    pub(super) fn close_fan(&mut self, f: FrontId) -> Result<bool, MarchError> {
+        let nodes = self.rings.walk(f);
+        let n = nodes.len();
+        if !(5..=8).contains(&n) {
+            return Ok(false);
+        }
+        let ids: Vec<PointId> = nodes.iter().map(|&v| self.rings.point(v)).collect();
+        if ids
+            .iter()
+            .any(|p| p.0 >= self.fixed_points || self.border[p.index()])
+            || (0..n).any(|i| (i + 1..n).any(|j| ids[i] == ids[j]))
+        {
+            return Ok(false);
+        }
+        let corners: Vec<DVec3> = ids.iter().map(|p| self.pos[p.index()]).collect();
+        let centre = corners.iter().sum::<DVec3>() / n as f64;
+        let Ok(c) = self.new_point(ids[0], centre) else {
+            return Ok(false);
+        };
+        let pc = self.pos[c.index()];
+        let mut turn = 0.0;
+        let good = !self.border[c.index()]
+            && (0..n).all(|i| {
+                let (a, b) = (ids[i], ids[(i + 1) % n]);
+                let (pa, pb) = (self.pos[a.index()], self.pos[b.index()]);
+                let [x, y, z] = crate::mesh::quality::triangle_angles(pa, pc, pb);
+                turn += y;
+                let facing = (pc - pa).cross(pb - pa);
+                x.min(y).min(z) >= FAN_MIN_ANGLE
+                    && [a, c, b]
+                        .iter()
+                        .all(|p| facing.dot(self.normal[p.index()]) > 0.0)
+            })
+            && (turn - 360.0f64).abs() < 1.0;
+        if !good {
+            self.pop_point();
+            return Ok(false);
+        }
+        for i in 0..n {
+            self.add_triangle(ids[i], c, ids[(i + 1) % n]);
+        }
+        Ok(true)
     }
 
     /// Step 3 for a needle: m's front angle is tiny and its neighbours v1, v2 lie within

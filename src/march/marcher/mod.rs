@@ -540,6 +540,11 @@ impl Marcher<'_> {
                     );
                 }
                 true
+            } else if self.close_fan(actual)? {
+                if self.trace {
+                    eprintln!("march: close front {} with a fan at {}", actual.0, last_at);
+                }
+                true
             } else if self.rings.len(actual) <= 3 {
                 let (a, b) = (self.rings.prev(m), self.rings.next(m));
                 if self.rings.len(actual) == 3 {

@@ -289,6 +289,26 @@ pub fn mesh_creased(
         }
         polygons.push(poly);
     }
+    // Each polygon vertex caps the pieces' local step at its longer polygon edge: a face
+    // whose rim is sampled finer than its own step (a blind hole's floor, whose rim follows
+    // the wall's curvature) is marched from that spacing, graded inwards, instead of with
+    // triangles of its own step on short edges (slivers fanning across the floor).
+    let mut caps = caps;
+    if !marching.uniform {
+        for poly in &polygons {
+            for (k, &v) in poly.iter().enumerate() {
+                let edge = |w: Option<&DVec3>| w.map_or(0.0, |w| w.distance(v));
+                let longer =
+                    edge(k.checked_sub(1).and_then(|k| poly.get(k))).max(edge(poly.get(k + 1)));
+                if longer > 0.0 && longer < step {
+                    caps.push(Cap {
+                        at: v,
+                        size: longer,
+                    });
+                }
+            }
+        }
+    }
     let mut out = CreasedMesh {
         creases: traced.len(),
         corners: t.corners.len(),
