@@ -101,9 +101,18 @@ impl<'p> Builder<'p> {
         r: &SurfaceRef,
         scale: f64,
     ) -> Result<Option<Spined>, CompileError> {
-        let mut outer = Vec::new();
+        self.spine_in(r, scale, &mut Vec::new())
+    }
+
+    /// [`creased`](Self::creased) inside the `dist` surfaces named in `outer`.
+    fn spine_in(
+        &self,
+        r: &SurfaceRef,
+        scale: f64,
+        outer: &mut Vec<String>,
+    ) -> Result<Option<Spined>, CompileError> {
         let found = compiled::compile_spine(self.program, r, &mut |target| {
-            self.dist_child(target, scale, &mut outer)
+            self.dist_child(target, scale, outer)
         })?;
         let Some((spine, branches)) = found else {
             return Ok(None);
@@ -166,23 +175,13 @@ impl<'p> Builder<'p> {
         scale: f64,
         outer: &mut Vec<String>,
     ) -> Result<Option<SpinePieces>, CompileError> {
-        let found = compiled::compile_spine(self.program, r, &mut |target| {
-            self.dist_child(target, scale, outer)
-        })?;
-        let Some((spine, branches)) = found else {
+        let Some((spine, branches)) = self.spine_in(r, scale, outer)? else {
             return Ok(None);
         };
         let Ok(forms) = spine.forms(MAX_FORMS) else {
             return Ok(None);
         };
         let whole = self.surface_in(r, scale, outer)?;
-        let branches = branches
-            .into_iter()
-            .map(|mut b| {
-                b.set_engine(self.engine);
-                Box::new(b) as Box<dyn Surface>
-            })
-            .collect();
         Ok(Some(SpinePieces::new(whole, forms, branches)))
     }
 

@@ -46,11 +46,18 @@ const FAILED: ValueGrad = ValueGrad {
 
 /// A distance is 1-Lipschitz: over a box it lies within the half-diagonal of its value at
 /// the centre. None when the centre has no foot point: the bound is then unknown and the
-/// caller splits the cell, so the surfaces' `bound` does not keep that as their fault (a
-/// foot-point search from a box corner far from a product of balls may diverge where the
-/// mesh never asks for a value).
-fn lipschitz_bound(d: &mut dyn Surface, lo: DVec3, hi: DVec3) -> Option<Interval> {
+/// caller splits the cell, so the centre's failure is not kept as the surface's fault (its
+/// slot `fault`; a foot-point search from a box corner far from a product of balls may
+/// diverge where the mesh never asks for a value).
+fn lipschitz_bound<S: Surface>(
+    d: &mut S,
+    fault: fn(&mut S) -> &mut Option<Fault>,
+    lo: DVec3,
+    hi: DVec3,
+) -> Option<Interval> {
+    let kept = fault(d).clone();
     let centre = d.value((lo + hi) * 0.5);
+    *fault(d) = kept;
     let r = (hi - lo).length() * 0.5;
     // Outward by a few ulps of the ends, and by the foot point's convergence error
     // (relative to the distance, far below the half-diagonal of a cell).
@@ -138,10 +145,7 @@ impl Surface for ImplicitDist {
     }
 
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
-        let kept = self.fault.clone();
-        let bound = lipschitz_bound(self, lo, hi);
-        self.fault = kept;
-        bound
+        lipschitz_bound(self, |d| &mut d.fault, lo, hi)
     }
 
     fn fault(&self) -> Option<Fault> {
@@ -225,10 +229,7 @@ impl Surface for PatchDist {
     }
 
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
-        let kept = self.fault.clone();
-        let bound = lipschitz_bound(self, lo, hi);
-        self.fault = kept;
-        bound
+        lipschitz_bound(self, |d| &mut d.fault, lo, hi)
     }
 
     fn fault(&self) -> Option<Fault> {
@@ -301,10 +302,7 @@ impl Surface for SolidDist {
     }
 
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
-        let kept = self.fault.clone();
-        let bound = lipschitz_bound(self, lo, hi);
-        self.fault = kept;
-        bound
+        lipschitz_bound(self, |d| &mut d.fault, lo, hi)
     }
 
     fn fault(&self) -> Option<Fault> {

@@ -272,11 +272,12 @@ impl Marcher<'_> {
     /// in such a polygon (13.8° on a hole's floor whose radius is the step). False, with
     /// nothing changed, where the fan would not be that good.
     pub(super) fn close_fan(&mut self, f: FrontId) -> Result<bool, MarchError> {
-        let nodes = self.rings.walk(f);
-        let n = nodes.len();
+        // Asked at every step of the march: the length first, the walk only for a small front.
+        let n = self.rings.len(f);
         if !(5..=8).contains(&n) {
             return Ok(false);
         }
+        let nodes = self.rings.walk(f);
         let ids: Vec<PointId> = nodes.iter().map(|&v| self.rings.point(v)).collect();
         if ids
             .iter()
