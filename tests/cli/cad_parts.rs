@@ -14,10 +14,8 @@
 //! - a plate 2×4×0.2 with 80 through holes of radius 0.05 on a grid, at step 0.02: right,
 //!   χ = 2 − 2·80, every triangle ≥ 30°.
 //!
-//! Today surfc refuses these, so the checks are asserted only with `SURFC_CAD_STRICT=1`
-//! (the crease rework switches it on); without it each test prints what surfc says and
-//! asserts only what the sweep always asserts (no wrong mesh, no crash, no run over the
-//! limit). A further test shows that the sweep's judge does tell wrong meshes from right ones.
+//! The checks are asserted always (the plate is a long run, `.ci/run` runs it). A further
+//! test shows that the sweep's judge does tell wrong meshes from right ones.
 
 use crate::common;
 
@@ -27,7 +25,7 @@ use std::time::Duration;
 use common::cad::{Class, Part, Solid, smin};
 use glam::DVec3;
 
-use super::cad_sweep::{Judged, Outcome, judge, run_with_limit, strict, volume_and_area};
+use super::cad_sweep::{Judged, Outcome, judge, run_with_limit, volume_and_area};
 
 /// A part written by hand: `solid`, its smallest feature and χ.
 fn part(what: &str, solid: Solid, feature: f64, euler: i64) -> Part {
@@ -145,18 +143,16 @@ fn l_bracket_is_right_at_three_steps() {
     let part = part("L-bracket", l_bracket(), 0.3, 2);
     for step in [0.05, 0.1, 0.3] {
         let judged = mesh(&part, step, &dir);
-        if strict() {
-            assert_right_and_fine(&part, step, &judged);
-            // The L's section has area 0.96 and perimeter 7; it is 1 deep.
-            assert_exact_block(
-                &judged,
-                step,
-                DVec3::ZERO,
-                DVec3::new(2.0, 1.0, 1.5),
-                0.96,
-                2.0 * 0.96 + 7.0,
-            );
-        }
+        assert_right_and_fine(&part, step, &judged);
+        // The L's section has area 0.96 and perimeter 7; it is 1 deep.
+        assert_exact_block(
+            &judged,
+            step,
+            DVec3::ZERO,
+            DVec3::new(2.0, 1.0, 1.5),
+            0.96,
+            2.0 * 0.96 + 7.0,
+        );
     }
 }
 
@@ -203,21 +199,19 @@ fn filleted_l_bracket_is_flat_where_flush() {
     assert_eq!(smin(0.0, 0.0, 0.1), -0.025);
     for step in [0.05, 0.1, 0.3] {
         let judged = mesh(&part, step, &dir);
-        if strict() {
-            assert!(bulges.is_empty(), "flush faces are not flat: {bulges:?}");
-            assert_right_and_fine(&part, step, &judged);
-            let m = judged.mesh.as_ref().expect("a mesh");
-            let lo = m.vertices.iter().fold(DVec3::INFINITY, |a, b| a.min(*b));
-            let hi = m
-                .vertices
-                .iter()
-                .fold(DVec3::NEG_INFINITY, |a, b| a.max(*b));
-            assert!(
-                (lo - DVec3::ZERO).abs().max_element() <= 1e-9 * step
-                    && (hi - DVec3::new(2.0, 1.0, 1.5)).abs().max_element() <= 1e-9 * step,
-                "extent {lo}..{hi}: the flush faces are not at the boxes' faces"
-            );
-        }
+        assert!(bulges.is_empty(), "flush faces are not flat: {bulges:?}");
+        assert_right_and_fine(&part, step, &judged);
+        let m = judged.mesh.as_ref().expect("a mesh");
+        let lo = m.vertices.iter().fold(DVec3::INFINITY, |a, b| a.min(*b));
+        let hi = m
+            .vertices
+            .iter()
+            .fold(DVec3::NEG_INFINITY, |a, b| a.max(*b));
+        assert!(
+            (lo - DVec3::ZERO).abs().max_element() <= 1e-9 * step
+                && (hi - DVec3::new(2.0, 1.0, 1.5)).abs().max_element() <= 1e-9 * step,
+            "extent {lo}..{hi}: the flush faces are not at the boxes' faces"
+        );
     }
 }
 
@@ -236,37 +230,35 @@ fn two_boxes_sharing_a_face_are_one_block() {
     );
     for step in [0.05, 0.1, 0.3] {
         let judged = mesh(&part, step, &dir);
-        if strict() {
-            assert_right_and_fine(&part, step, &judged);
-            assert_exact_block(
-                &judged,
-                step,
-                DVec3::ZERO,
-                DVec3::new(2.0, 1.0, 1.0),
-                2.0,
-                10.0,
-            );
-            // A crease traced along the shared face's rim would put a vertex at least every
-            // step along the four lines x = 1 of the outer faces; a mesh without one has at
-            // most a few there by chance.
-            let m = judged.mesh.as_ref().expect("a mesh");
-            let on_rim = m
-                .vertices
-                .iter()
-                .filter(|p| {
-                    (p.x - 1.0).abs() <= 1e-12
-                        && (p.y.abs() <= 1e-12
-                            || (p.y - 1.0).abs() <= 1e-12
-                            || p.z.abs() <= 1e-12
-                            || (p.z - 1.0).abs() <= 1e-12)
-                })
-                .count();
-            let row = 4.0 * (1.0 / step + 1.0);
-            assert!(
-                (on_rim as f64) < 0.5 * row,
-                "{on_rim} vertices on x = 1 on the outer faces: a crease on the shared face"
-            );
-        }
+        assert_right_and_fine(&part, step, &judged);
+        assert_exact_block(
+            &judged,
+            step,
+            DVec3::ZERO,
+            DVec3::new(2.0, 1.0, 1.0),
+            2.0,
+            10.0,
+        );
+        // A crease traced along the shared face's rim would put a vertex at least every
+        // step along the four lines x = 1 of the outer faces; a mesh without one has at
+        // most a few there by chance.
+        let m = judged.mesh.as_ref().expect("a mesh");
+        let on_rim = m
+            .vertices
+            .iter()
+            .filter(|p| {
+                (p.x - 1.0).abs() <= 1e-12
+                    && (p.y.abs() <= 1e-12
+                        || (p.y - 1.0).abs() <= 1e-12
+                        || p.z.abs() <= 1e-12
+                        || (p.z - 1.0).abs() <= 1e-12)
+            })
+            .count();
+        let row = 4.0 * (1.0 / step + 1.0);
+        assert!(
+            (on_rim as f64) < 0.5 * row,
+            "{on_rim} vertices on x = 1 on the outer faces: a crease on the shared face"
+        );
     }
 }
 
@@ -295,9 +287,7 @@ fn plate_with_80_holes() {
     part.class = Class::Plate;
     let step = 0.02;
     let judged = mesh(&part, step, &dir);
-    if strict() {
-        assert_right_and_fine(&part, step, &judged);
-    }
+    assert_right_and_fine(&part, step, &judged);
 }
 
 /// The judge tells wrong meshes from right ones: two balls (which surfc meshes right) judged

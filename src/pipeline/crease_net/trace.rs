@@ -29,6 +29,9 @@ pub(super) struct Traced {
 pub(super) struct Corner {
     pub at: DVec3,
     pub leaving: Vec<Leaving>,
+    /// A hand-over (two creases of the same two faces, see `Tracer::hand_over`), which a
+    /// walk along the faces meets without an event: it stops there all the same.
+    pub hand_over: bool,
 }
 
 /// What the walk met where the active faces changed.
@@ -541,12 +544,30 @@ impl<'a> Tracer<'a> {
                 }
                 halvings += 1;
                 if halvings > 30 {
-                    return Err(CreaseError::Lost { at: p });
+                    let Some(id) = self.hand_over(i, j, p, t)? else {
+                        return Err(CreaseError::Lost { at: p });
+                    };
+                    let v = self.corners[id].at;
+                    // The walk crept up to the parting in ever shorter steps, a tie's width
+                    // off the face that goes on: those points give no direction.
+                    while points.len() > 1
+                        && points
+                            .last()
+                            .is_some_and(|l| l.distance(v) <= 1e-2 * self.step)
+                    {
+                        points.pop();
+                    }
+                    points.push(v);
+                    return Ok((points, Some(id)));
                 }
                 h *= 0.5;
             };
             if !self.inside(q) {
                 return Err(CreaseError::LeavesBox { at: q });
+            }
+            if let Some(id) = self.hand_over_between(i, j, p, q, standing) {
+                points.push(self.corners[id].at);
+                return Ok((points, Some(id)));
             }
             let seg = q - p;
             if points.len() >= 3 {
@@ -672,10 +693,140 @@ impl<'a> Tracer<'a> {
                 if !self.inside(v) {
                     return Err(CreaseError::LeavesBox { at: v });
                 }
-                self.corners.push(Corner { at: v, leaving });
+                self.corners.push(Corner {
+                    at: v,
+                    leaving,
+                    hand_over: false,
+                });
                 Ok(Some(Event::Corner(self.corners.len() - 1)))
             }
         }
+    }
+
+    /// Where the crease of i and j, lost at p, goes on as the crease of j and another form k
+    /// of i's sheet (or of i and one of j's): a form tied at p, with i's normal, that is the
+    /// face where i parts from it tangentially. A smooth boolean's piece saturates onto a
+    /// face (the filleted L's lifted back face equals the back plane up to where the fillet
+    /// begins, then bends away inside the solid): its crease with the top leaves the surface
+    /// there, where the plane's goes on. i and k are united as one face, and the hand-over
+    /// point becomes a corner of two creases of the same two faces. None when no tied form
+    /// goes on.
+    fn hand_over(
+        &mut self,
+        i: usize,
+        j: usize,
+        p: DVec3,
+        t: DVec3,
+    ) -> Result<Option<usize>, CreaseError> {
+        let g = self.c.whole(p).gradient.length();
+        let active = self.c.active(p, self.eps(g));
+        let h0 = self.s.trace * self.step;
+        let (scale, fs) = (self.scale(), self.faces());
+        for &k in &active {
+            if k == i || k == j {
+                continue;
+            }
+            for (slot, other) in [(i, j), (j, i)] {
+                if self.c.class(k) == self.c.class(other) || self.c.by_selector(k, other) {
+                    continue;
+                }
+                let (gs, gk) = (self.c.form(slot, p).gradient, self.c.form(k, p).gradient);
+                // Tangent where they part: the normals agree to the crease's turn in a
+                // tracing step, far from any crease angle.
+                if gs.dot(gk) <= 0.0 || sine(gs, gk) > 1e-2 {
+                    continue;
+                }
+                let Some(v) = self.correct(k, other, p, p, t) else {
+                    continue;
+                };
+                if v.distance(p) > 1e-4 * self.step {
+                    continue;
+                }
+                // It goes on: a step along t lands on the crease of k and the other face,
+                // both chosen there.
+                let mut h = h0;
+                let mut next = None;
+                for _ in 0..12 {
+                    let y = v + h * t;
+                    if let Some(q) = self
+                        .correct(k, other, y, y, t)
+                        .filter(|q| (0.5 * h..=1.5 * h).contains(&q.distance(v)))
+                        && self.on_crease(k, other, q)
+                    {
+                        next = Some(q);
+                        break;
+                    }
+                    h *= 0.5;
+                }
+                let Some(q) = next else {
+                    continue;
+                };
+                let mut tq = self.tangent(k, other, q)?;
+                if tq.dot(t) < 0.0 {
+                    tq = -tq;
+                }
+                let Crossing::Crease { faces } = faces::crossing(self.c, q, tq, &scale, &fs)?
+                else {
+                    continue;
+                };
+                self.c.unite(slot, k);
+                if !self.inside(v) {
+                    return Err(CreaseError::LeavesBox { at: v });
+                }
+                let ahead = Leaving {
+                    faces,
+                    direction: (q - v).normalize_or_zero(),
+                    at: q,
+                };
+                let behind = Leaving {
+                    direction: -t,
+                    at: v - h * t,
+                    ..ahead
+                };
+                if crate::trace::enabled() {
+                    eprintln!(
+                        "creases: the crease of {i} and {j} goes on at {v} as the crease of {k} and {other}"
+                    );
+                }
+                self.corners.push(Corner {
+                    at: v,
+                    leaving: vec![behind, ahead],
+                    hand_over: true,
+                });
+                return Ok(Some(self.corners.len() - 1));
+            }
+        }
+        Ok(None)
+    }
+
+    /// A hand-over corner of the faces of i and j on the segment p..q (other than where the
+    /// walk stands): the walk along the faces' other forms passes it without an event.
+    fn hand_over_between(
+        &mut self,
+        i: usize,
+        j: usize,
+        p: DVec3,
+        q: DVec3,
+        standing: Option<DVec3>,
+    ) -> Option<usize> {
+        let (ci, cj) = (self.c.class(i), self.c.class(j));
+        let seg = q - p;
+        let near = 1e-6 * self.step;
+        (0..self.corners.len()).find(|&id| {
+            let corner = &self.corners[id];
+            if !corner.hand_over || standing.is_some_and(|s| s.distance(corner.at) <= near) {
+                return false;
+            }
+            let s = ((corner.at - p).dot(seg) / seg.length_squared()).clamp(0.0, 1.0);
+            // The corner lies on the crease, which bends away from the chord by up to its
+            // curvature times the step squared.
+            if (p + s * seg).distance(corner.at) > near.max(0.1 * seg.length()) {
+                return false;
+            }
+            let faces = corner.leaving[0].faces;
+            let (a, b) = (self.c.class(faces[0].0), self.c.class(faces[1].0));
+            (a == ci && b == cj) || (a == cj && b == ci)
+        })
     }
 
     /// The common zero of three forms near `start`: Newton on one of them and its seams with
