@@ -191,21 +191,32 @@ impl<'a> Tracer<'a> {
         out
     }
 
-    /// Whether q lies on the crease of forms i and j: the faces chosen there are theirs and
-    /// no other. Forms chosen there that are one sheet with i or j are united with them first.
+    /// Whether q lies on the crease of forms i and j: i and j are chosen there, and the faces
+    /// chosen are theirs and no other. Forms chosen there that are one sheet with i or j are
+    /// united with them first. (A form of a face may be one sheet with it over a part only,
+    /// a smooth boolean's lifted piece saturating onto a plane: where it parts from the
+    /// face, it is no longer chosen, and the crease is handed over, `hand_over`.)
     fn on_crease(&mut self, i: usize, j: usize, q: DVec3) -> bool {
         let g = self.c.whole(q).gradient.length();
         let active = self.c.active(q, self.eps(g));
+        if !(active.contains(&i) && active.contains(&j)) {
+            return false;
+        }
         let (ci, cj) = (self.c.class(i), self.c.class(j));
         let scale = self.scale();
         let fs = self.faces();
         for &k in &active {
             let ck = self.c.class(k);
-            if ck == ci || ck == cj || self.c.by_selector(k, i) || self.c.by_selector(k, j) {
+            if ck == ci || ck == cj {
                 continue;
             }
             let gk = self.c.form(k, q).gradient;
             for f in [i, j] {
+                // A lifted choice's other operand beside f (a box's next face, past the
+                // edge the seam is) may still be one sheet with the other face.
+                if self.c.by_selector(k, f) {
+                    continue;
+                }
                 if self.opposite.contains(&(f.min(k), f.max(k))) {
                     break;
                 }
@@ -703,14 +714,14 @@ impl<'a> Tracer<'a> {
         }
     }
 
-    /// Where the crease of i and j, lost at p, goes on as the crease of j and another form k
-    /// of i's sheet (or of i and one of j's): a form tied at p, with i's normal, that is the
-    /// face where i parts from it tangentially. A smooth boolean's piece saturates onto a
-    /// face (the filleted L's lifted back face equals the back plane up to where the fillet
-    /// begins, then bends away inside the solid): its crease with the top leaves the surface
-    /// there, where the plane's goes on. i and k are united as one face, and the hand-over
-    /// point becomes a corner of two creases of the same two faces. None when no tied form
-    /// goes on.
+    /// Where the crease of i and j, lost at p, goes on as the crease of stand-ins of them:
+    /// forms tied at p with i's (or j's) normal, from which i (or j) parts tangentially. A
+    /// smooth boolean's piece saturates onto a face (the filleted L's lifted back face equals
+    /// the back plane up to where the fillet begins, then bends away inside the solid): its
+    /// crease with the top leaves the surface there, where the plane's goes on; a T's two
+    /// lifted pieces along the bar's edge both part from its planes where the post begins.
+    /// Each form is united with its stand-in as one face, and the hand-over point becomes a
+    /// corner of two creases of the same two faces. None when no stand-ins go on.
     fn hand_over(
         &mut self,
         i: usize,
@@ -720,81 +731,91 @@ impl<'a> Tracer<'a> {
     ) -> Result<Option<usize>, CreaseError> {
         let g = self.c.whole(p).gradient.length();
         let active = self.c.active(p, self.eps(g));
-        let h0 = self.s.trace * self.step;
-        let (scale, fs) = (self.scale(), self.faces());
+        // Each form's stand-ins: itself and the forms tied at p with its normal.
+        let mut stand_ins = [vec![i], vec![j]];
         for &k in &active {
             if k == i || k == j {
                 continue;
             }
-            for (slot, other) in [(i, j), (j, i)] {
+            let gk = self.c.form(k, p).gradient;
+            for (slot, f) in [i, j].into_iter().enumerate() {
+                let other = [j, i][slot];
                 if self.c.class(k) == self.c.class(other) || self.c.by_selector(k, other) {
                     continue;
                 }
-                let (gs, gk) = (self.c.form(slot, p).gradient, self.c.form(k, p).gradient);
+                let gf = self.c.form(f, p).gradient;
                 // Tangent where they part: the normals agree to the crease's turn in a
                 // tracing step, far from any crease angle.
-                if gs.dot(gk) <= 0.0 || sine(gs, gk) > 1e-2 {
-                    continue;
+                if gf.dot(gk) > 0.0 && sine(gf, gk) <= 1e-2 {
+                    stand_ins[slot].push(k);
                 }
-                let Some(v) = self.correct(k, other, p, p, t) else {
-                    continue;
-                };
-                if v.distance(p) > 1e-4 * self.step {
-                    continue;
-                }
-                // It goes on: a step along t lands on the crease of k and the other face,
-                // both chosen there.
-                let mut h = h0;
-                let mut next = None;
-                for _ in 0..12 {
-                    let y = v + h * t;
-                    if let Some(q) = self
-                        .correct(k, other, y, y, t)
-                        .filter(|q| (0.5 * h..=1.5 * h).contains(&q.distance(v)))
-                        && self.on_crease(k, other, q)
-                    {
-                        next = Some(q);
-                        break;
-                    }
-                    h *= 0.5;
-                }
-                let Some(q) = next else {
-                    continue;
-                };
-                let mut tq = self.tangent(k, other, q)?;
-                if tq.dot(t) < 0.0 {
-                    tq = -tq;
-                }
-                let Crossing::Crease { faces } = faces::crossing(self.c, q, tq, &scale, &fs)?
-                else {
-                    continue;
-                };
-                self.c.unite(slot, k);
-                if !self.inside(v) {
-                    return Err(CreaseError::LeavesBox { at: v });
-                }
-                let ahead = Leaving {
-                    faces,
-                    direction: (q - v).normalize_or_zero(),
-                    at: q,
-                };
-                let behind = Leaving {
-                    direction: -t,
-                    at: v - h * t,
-                    ..ahead
-                };
-                if crate::trace::enabled() {
-                    eprintln!(
-                        "creases: the crease of {i} and {j} goes on at {v} as the crease of {k} and {other}"
-                    );
-                }
-                self.corners.push(Corner {
-                    at: v,
-                    leaving: vec![behind, ahead],
-                    hand_over: true,
-                });
-                return Ok(Some(self.corners.len() - 1));
             }
+        }
+        let h0 = self.s.trace * self.step;
+        let (scale, fs) = (self.scale(), self.faces());
+        let pairs: Vec<(usize, usize)> = stand_ins[0]
+            .iter()
+            .flat_map(|&a| stand_ins[1].iter().map(move |&b| (a, b)))
+            .filter(|&(a, b)| (a, b) != (i, j) && a != b)
+            .collect();
+        for (a, b) in pairs {
+            let Some(v) = self.correct(a, b, p, p, t) else {
+                continue;
+            };
+            if v.distance(p) > 1e-4 * self.step {
+                continue;
+            }
+            // It goes on: a step along t lands on the crease of a and b, both chosen there.
+            let mut h = h0;
+            let mut next = None;
+            for _ in 0..12 {
+                let y = v + h * t;
+                if let Some(q) = self
+                    .correct(a, b, y, y, t)
+                    .filter(|q| (0.5 * h..=1.5 * h).contains(&q.distance(v)))
+                    && self.on_crease(a, b, q)
+                {
+                    next = Some(q);
+                    break;
+                }
+                h *= 0.5;
+            }
+            let Some(q) = next else {
+                continue;
+            };
+            let mut tq = self.tangent(a, b, q)?;
+            if tq.dot(t) < 0.0 {
+                tq = -tq;
+            }
+            let Crossing::Crease { faces } = faces::crossing(self.c, q, tq, &scale, &fs)? else {
+                continue;
+            };
+            self.c.unite(i, a);
+            self.c.unite(j, b);
+            if !self.inside(v) {
+                return Err(CreaseError::LeavesBox { at: v });
+            }
+            let ahead = Leaving {
+                faces,
+                direction: (q - v).normalize_or_zero(),
+                at: q,
+            };
+            let behind = Leaving {
+                direction: -t,
+                at: v - h * t,
+                ..ahead
+            };
+            if crate::trace::enabled() {
+                eprintln!(
+                    "creases: the crease of {i} and {j} goes on at {v} as the crease of {a} and {b}"
+                );
+            }
+            self.corners.push(Corner {
+                at: v,
+                leaving: vec![behind, ahead],
+                hand_over: true,
+            });
+            return Ok(Some(self.corners.len() - 1));
         }
         Ok(None)
     }
