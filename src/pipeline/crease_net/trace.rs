@@ -554,7 +554,9 @@ impl<'a> Tracer<'a> {
                     break q;
                 }
                 halvings += 1;
-                if halvings > 30 {
+                // Stuck: thirty halvings here, or a step as short (steps that short may
+                // still land, creeping at rounding's pace).
+                if halvings > 30 || h < h0 * (-30f64).exp2() {
                     let Some(id) = self.hand_over(i, j, p, t)? else {
                         return Err(CreaseError::Lost { at: p });
                     };
