@@ -323,6 +323,32 @@ fn tangential_contact_is_refused_at_its_place() {
     assert!(started.elapsed().as_secs_f64() < 20.0);
 }
 
+/// Two rods of one radius whose axes cross (a lattice's joint) touch at the two points where
+/// the ellipses of their crossing meet: the crease ends there with no angle, which is refused
+/// as a tangent contact at one of those points, with a help that says what to change — and
+/// with one rod a little thicker the joint meshes, closed, χ = 2.
+#[test]
+fn crossing_rods_of_one_radius_are_refused_where_they_touch() {
+    let source = |r2: f64| {
+        format!(
+            "surface s = union(\n\
+               rotate(cylinder(0.05, 0.6), axis: (0, 1, 0), angle: pi / 2),\n\
+               rotate(cylinder({r2}, 0.6), axis: (1, 0, 0), angle: pi / 2));\n\
+             mesh s = s {{ step: 0.025; box: (-0.4, -0.4, -0.15) .. (0.4, 0.4, 0.15); }}\n"
+        )
+    };
+    let d = match mesh_source(&source(0.05)) {
+        Ok(_) => panic!("crossing rods of one radius meshed"),
+        Err(d) => d,
+    };
+    let text = format!("{:?}", d[0]);
+    assert_eq!(d[0].code, "E0601");
+    assert!(text.contains("tangentially"), "{text}");
+    assert!(text.contains("rods of one radius"), "{text}");
+    let m = mesh_one(&source(0.053));
+    assert_closed(&m, 2, 20.0);
+}
+
 /// Four faces at a point (the apex of a pyramid of four planes, a 5-ary `max`): the apex is
 /// a mesh vertex where the four faces' creases meet, every triangle lies in one face, and
 /// the area is the pyramid's (four triangles √2 each and the base 4).

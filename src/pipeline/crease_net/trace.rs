@@ -34,6 +34,10 @@ pub(super) struct Corner {
     pub hand_over: bool,
 }
 
+/// A walk stuck where its two faces' normals are closer than this sine (0.6°) ends where the
+/// faces become tangent.
+const TANGENT_END: f64 = 1e-2;
+
 /// What the walk met where the active faces changed.
 enum Event {
     /// A junction the crease passes through (ties of operands inside the solid).
@@ -558,6 +562,14 @@ impl<'a> Tracer<'a> {
                 // still land, creeping at rounding's pace).
                 if halvings > 30 || h < h0 * (-30f64).exp2() {
                     let Some(id) = self.hand_over(i, j, p, t)? else {
+                        // Stuck where the two faces have become tangent (rods of one radius
+                        // whose axes cross touch where the crease ends): that, not a
+                        // feature too small for the step, is what stops the walk.
+                        let (a, b) = self.pair(i, j, p);
+                        let sine = sine(a.gradient, b.gradient);
+                        if sine < TANGENT_END {
+                            return Err(CreaseError::Tangent { at: p, sine });
+                        }
                         return Err(CreaseError::Lost { at: p });
                     };
                     let v = self.corners[id].at;
