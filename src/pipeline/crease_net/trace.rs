@@ -34,9 +34,11 @@ pub(super) struct Corner {
     pub hand_over: bool,
 }
 
-/// A walk stuck where its two faces' normals are closer than this sine (0.6°) ends where the
-/// faces become tangent.
-const TANGENT_END: f64 = 1e-2;
+/// Normals closer than this sine (0.6°) are tangent to a stuck walk: a form with one of its
+/// forms' normals may stand in for it (`Tracer::hand_over`), and a walk stuck with its two
+/// forms' normals that close ends where its faces become tangent. Far below any crease
+/// angle traced, far above the crease's turn over the last halvings.
+const TANGENT: f64 = 1e-2;
 
 /// What the walk met where the active faces changed.
 enum Event {
@@ -567,7 +569,7 @@ impl<'a> Tracer<'a> {
                         // feature too small for the step, is what stops the walk.
                         let (a, b) = self.pair(i, j, p);
                         let sine = sine(a.gradient, b.gradient);
-                        if sine < TANGENT_END {
+                        if sine < TANGENT {
                             return Err(CreaseError::Tangent { at: p, sine });
                         }
                         return Err(CreaseError::Lost { at: p });
@@ -747,20 +749,19 @@ impl<'a> Tracer<'a> {
         let active = self.c.active(p, self.eps(g));
         // Each form's stand-ins: itself and the forms tied at p with its normal.
         let mut stand_ins = [vec![i], vec![j]];
+        let own = [self.c.form(i, p).gradient, self.c.form(j, p).gradient];
         for &k in &active {
             if k == i || k == j {
                 continue;
             }
             let gk = self.c.form(k, p).gradient;
-            for (slot, f) in [i, j].into_iter().enumerate() {
+            for (slot, gf) in own.into_iter().enumerate() {
                 let other = [j, i][slot];
                 if self.c.class(k) == self.c.class(other) || self.c.by_selector(k, other) {
                     continue;
                 }
-                let gf = self.c.form(f, p).gradient;
-                // Tangent where they part: the normals agree to the crease's turn in a
-                // tracing step, far from any crease angle.
-                if gf.dot(gk) > 0.0 && sine(gf, gk) <= 1e-2 {
+                // Tangent where they part.
+                if gf.dot(gk) > 0.0 && sine(gf, gk) <= TANGENT {
                     stand_ins[slot].push(k);
                 }
             }
