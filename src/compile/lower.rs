@@ -110,6 +110,84 @@ impl<'p> Lowerer<'p> {
         Ok(n)
     }
 
+    /// The operands of U when `dist_part − d` is `offset(U, d)` of a union U (`min` of two or
+    /// more operands, named surfaces read through) by a number d > 0; None otherwise.
+    ///
+    /// The outward offset of a union is the union of its operands' offsets, exactly: outside
+    /// U the distance to U is the least of the distances to its operands, and inside U both
+    /// are negative. Lowered so, the concave edges where operands meet — creases of the
+    /// offset surface that `dist` of the whole would hide inside one smooth branch — are
+    /// `min` switches the crease search traces (docs/creases.md); each operand's own edges
+    /// are rounded by its `dist` as before.
+    fn offset_of_union(&self, dist_part: &Expr, d: &Expr, params: &[NodeId]) -> Option<Vec<Expr>> {
+        let (ExprKind::Dist(target), ExprKind::Number(d)) = (&dist_part.kind, &d.kind) else {
+            return None;
+        };
+        // Inside a function's body the operands may read its parameters, which a `dist`
+        // target of its own cannot: left as it is.
+        if d.is_nan() || *d <= 0.0 || !params.is_empty() || self.coords.is_some() {
+            return None;
+        }
+        let body = match target {
+            SurfaceRef::Surface(id) => &self.program.surfaces.get(id.index())?.body,
+            SurfaceRef::Anonymous(e) => e,
+            SurfaceRef::Patch(_) => return None,
+        };
+        let mut parts = Vec::new();
+        self.union_operands(body, &mut parts, 0);
+        (parts.len() >= 2).then_some(parts)
+    }
+
+    /// The operands of the `min`s at the top of `e` (through named surfaces), in order.
+    fn union_operands(&self, e: &Expr, out: &mut Vec<Expr>, depth: u32) {
+        match &e.kind {
+            ExprKind::Builtin(Builtin::Min, args) if args.len() == 2 && depth < MAX_DEPTH => {
+                for arg in args {
+                    self.union_operands(arg, out, depth + 1);
+                }
+            }
+            ExprKind::Surface(id)
+                if depth < MAX_DEPTH
+                    && !self.active_surfaces.contains(id)
+                    && self.program.surfaces.get(id.index()).is_some_and(|def| {
+                        matches!(def.body.kind, ExprKind::Builtin(Builtin::Min, _))
+                    }) =>
+            {
+                self.union_operands(&self.program.surfaces[id.index()].body, out, depth + 1);
+            }
+            _ => out.push(e.clone()),
+        }
+    }
+
+    /// min over `parts` of `dist(part) − d`: the offset of their union (`offset_of_union`).
+    fn union_of_offsets(
+        &mut self,
+        parts: Vec<Expr>,
+        d: &Expr,
+        span: Span,
+        params: &[NodeId],
+    ) -> Result<NodeId, CompileError> {
+        let d = self.expr(d, params)?;
+        let mut union = None;
+        for part in parts {
+            let target = match part.kind {
+                ExprKind::Surface(id) => SurfaceRef::Surface(id),
+                _ => SurfaceRef::Anonymous(Box::new(part)),
+            };
+            let dist = Expr {
+                kind: ExprKind::Dist(target),
+                span,
+            };
+            let dist = self.expr(&dist, params)?;
+            let offset = self.graph.binary(Op::Sub, dist, d);
+            union = Some(match union {
+                None => offset,
+                Some(u) => self.graph.binary(Op::Min, u, offset),
+            });
+        }
+        union.ok_or(CompileError::TooDeep { span })
+    }
+
     /// An expression whose `Param(i)` are `params[i]`.
     pub fn expr(&mut self, e: &Expr, params: &[NodeId]) -> Result<NodeId, CompileError> {
         if self.depth >= MAX_DEPTH {
@@ -156,6 +234,11 @@ impl<'p> Lowerer<'p> {
             ExprKind::Unary(UnaryOp::Neg, a) => {
                 let a = self.expr(a, params)?;
                 self.graph.unary(Op::Neg, a)
+            }
+            ExprKind::Binary(BinaryOp::Sub, a, b)
+                if let Some(parts) = self.offset_of_union(a, b, params) =>
+            {
+                return self.union_of_offsets(parts, b, a.span, params);
             }
             ExprKind::Binary(op, a, b) => {
                 let a = self.expr(a, params)?;

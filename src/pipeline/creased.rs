@@ -151,7 +151,7 @@ fn failed(def: &MeshDef, e: &CreaseError) -> Diagnostic {
     let help = match e {
         CreaseError::MissedCrease { .. } | CreaseError::LeavesBox { .. } => Some(HELP),
         CreaseError::Tangent { .. } | CreaseError::SingularCorner { .. } => Some(
-            "move or resize a part a little (apart, into each other, one of two rods of one radius whose axes cross a little thicker): where pieces touch or meet more than three at a point, the crease has no direction",
+            "move or resize a part a little (apart, or into each other): where pieces touch or meet more than three at a point, the crease has no direction",
         ),
         CreaseError::LeftPiece { .. } | CreaseError::Lost { .. } => {
             Some("a smaller `step` lets the crease search see smaller features")

@@ -102,6 +102,8 @@ const ROWS: &[Row] = &[
     row("g2_set", "closure", false, Some(1), Some(1), None),
     // CSG (issue 12): a plate with two through holes is a closed surface of genus 2.
     row("plate", "part", true, Some(-2), Some(0), None),
+    // A bracket of two solids with five holes, rounded by `offset` (issue 42): genus 5.
+    row("bracket", "bracket", true, Some(-8), Some(0), None),
 ];
 
 fn row_of(file: &str, name: &str) -> Option<&'static Row> {

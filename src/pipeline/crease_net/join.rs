@@ -196,10 +196,16 @@ fn bits(p: DVec3) -> [u64; 3] {
 }
 
 /// Joins one face's directed polygons into closed loops at their corners (the last vertex of
-/// each loop not repeated). `corners` are the corners' places. A face lies between two of
-/// the creases that leave each of its corners, so each corner has one polygon of the face
-/// arriving and one leaving.
-pub(super) fn chain(polys: Vec<Side>, corners: &[DVec3]) -> Result<Vec<Vec<DVec3>>, CreaseError> {
+/// each loop not repeated). `corners` are the corners' places and, for a tangent crossing,
+/// the common normal. A face lies between two of the creases that leave each of its corners,
+/// so each corner has one polygon of the face arriving and one leaving — but a tangent
+/// crossing, where the face lies in two opposite sectors and has two of each: there the
+/// polygon that goes on is the one the face's sector turns to (clockwise about the normal
+/// from the arriving one, the face lying on the left of both).
+pub(super) fn chain(
+    polys: Vec<Side>,
+    corners: &[(DVec3, Option<DVec3>)],
+) -> Result<Vec<Vec<DVec3>>, CreaseError> {
     let mut loops = Vec::new();
     let mut open: Vec<(Vec<DVec3>, usize, usize)> = Vec::new();
     for (p, ends) in polys {
@@ -217,24 +223,47 @@ pub(super) fn chain(polys: Vec<Side>, corners: &[DVec3]) -> Result<Vec<Vec<DVec3
         let start = open[first].1;
         let mut ring: Vec<DVec3> = open[first].0.clone();
         let mut end = open[first].2;
-        while end != start {
-            let next: Vec<usize> = (0..open.len())
+        loop {
+            let (at, normal) = corners[end];
+            let mut next: Vec<usize> = (0..open.len())
                 .filter(|&k| !used[k] && open[k].1 == end)
                 .collect();
-            match next[..] {
-                [k] => {
-                    used[k] = true;
-                    ring.extend_from_slice(&open[k].0[1..]);
-                    end = open[k].2;
+            if end == start {
+                // Closed, unless the face passes this tangent crossing twice and its sector
+                // here turns to another polygon.
+                if normal.is_none() || next.is_empty() {
+                    break;
                 }
-                [] => return Err(CreaseError::Chain { at: corners[end] }),
+                next.push(first);
+            }
+            let k = match (&next[..], normal) {
+                (&[k], _) => k,
+                (&[], _) => return Err(CreaseError::Chain { at }),
+                (_, Some(n)) if ring.len() >= 2 => {
+                    let arriving = ring[ring.len() - 2] - at;
+                    let turn = |k: usize| {
+                        let leaving = open[k].0[1] - at;
+                        let ccw = n.dot(arriving.cross(leaving)).atan2(arriving.dot(leaving));
+                        ccw.rem_euclid(std::f64::consts::TAU)
+                    };
+                    next.iter()
+                        .copied()
+                        .max_by(|&a, &b| turn(a).total_cmp(&turn(b)))
+                        .unwrap_or(next[0])
+                }
                 _ => {
                     return Err(CreaseError::SingularCorner {
-                        at: corners[end],
+                        at,
                         pieces: next.len() + 2,
                     });
                 }
+            };
+            if k == first {
+                break;
             }
+            used[k] = true;
+            ring.extend_from_slice(&open[k].0[1..]);
+            end = open[k].2;
         }
         // The start corner closes the loop: not repeated.
         ring.pop();

@@ -315,7 +315,8 @@ pub fn mesh_creased(
         polygons,
         ..CreasedMesh::default()
     };
-    let corners: Vec<DVec3> = t.corners.iter().map(|c| c.at).collect();
+    let corners: Vec<(DVec3, Option<DVec3>)> =
+        t.corners.iter().map(|c| (c.at, c.tangent)).collect();
     let mut limit = marching.max_triangles;
     let piece_settings = MarchSettings {
         polygon_edge_min: march_settings.polygon_edge_min.min(settings.shortest),

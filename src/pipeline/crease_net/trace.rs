@@ -16,6 +16,8 @@ use crate::survey::faces::{self, Crossing, FaceSettings, Junction, Leaving, Scal
 use crate::survey::sizing::Sizing;
 use crate::survey::spine::{Creased, Spine};
 
+mod tangent;
+
 /// A traced crease: the forms it was traced on (i, j), its points along ∇Lᵢ × ∇Lⱼ, and the
 /// corners at its ends.
 pub(super) struct Traced {
@@ -32,13 +34,17 @@ pub(super) struct Corner {
     /// A hand-over (two creases of the same two faces, see `Tracer::hand_over`), which a
     /// walk along the faces meets without an event: it stops there all the same.
     pub hand_over: bool,
+    /// Where the two faces of its creases touch and cross (`Tracer::tangent_crossing`):
+    /// their common normal (∇f's way). Each face meets such a corner in two sectors, and
+    /// its loops are chained there by the turn around this normal (`join::chain`).
+    pub tangent: Option<DVec3>,
 }
 
 /// Normals closer than this sine (0.6°) are tangent to a stuck walk: a form with one of its
 /// forms' normals may stand in for it (`Tracer::hand_over`), and a walk stuck with its two
 /// forms' normals that close ends where its faces become tangent. Far below any crease
 /// angle traced, far above the crease's turn over the last halvings.
-const TANGENT: f64 = 1e-2;
+pub(super) const TANGENT: f64 = 1e-2;
 
 /// What the walk met where the active faces changed.
 enum Event {
@@ -296,7 +302,11 @@ impl<'a> Tracer<'a> {
             return Ok(None);
         }
         let sine = sine(a.gradient, b.gradient);
-        if sine < self.s.tangent_sine || !converged {
+        // Newton that stalls short of rounding with a small residual is slow where the
+        // normals are nearly parallel (a contact, below), or its forms are noisy at the
+        // last digits (a `dist` solved by foot points): there, with the normals far apart,
+        // the point is a seed all the same, which the walk corrects.
+        if sine < self.s.tangent_sine || (!converged && sine < TANGENT) {
             if !self.c.by_selector(i, j) {
                 match faces::relate(self.c, i, j, p, &self.scale(), &self.faces()) {
                     faces::Relation::Same => {
@@ -306,6 +316,10 @@ impl<'a> Tracer<'a> {
                     faces::Relation::Opposite | faces::Relation::Shadow => return Ok(None),
                     faces::Relation::Touching => {}
                 }
+            }
+            // Where the faces touch and cross, a corner the creases are traced from.
+            if self.tangent_crossing(i, j, p)?.is_some() {
+                return Ok(None);
             }
             return Err(CreaseError::Tangent { at: p, sine });
         }
@@ -442,7 +456,17 @@ impl<'a> Tracer<'a> {
                 let (i, j) = (l.faces[0].0, l.faces[1].0);
                 let t = self.tangent(i, j, l.at)?;
                 let dir = if t.dot(l.direction) >= 0.0 { 1.0 } else { -1.0 };
-                let (points, end) = self.walk(i, j, at, dir, Some(next))?;
+                // At a tangent crossing the crease has no direction: the walk starts where
+                // the crease leaving it was found, the corner before it.
+                let start = if self.corners[next].tangent.is_some() {
+                    l.at
+                } else {
+                    at
+                };
+                let (mut points, end) = self.walk(i, j, start, dir, Some(next))?;
+                if start != at {
+                    points.insert(0, at);
+                }
                 let end = end.ok_or(CreaseError::Lost { at })?;
                 self.keep(
                     Traced {
@@ -480,10 +504,19 @@ impl<'a> Tracer<'a> {
             if e == id && n >= 2 {
                 ends.push((pts[n - 1], pts[n - 2]));
             }
-            if ends
+            // The crease leaving along l, of the corner's creases of these faces the one
+            // nearest in direction (a tangent crossing has four, at any angle).
+            let others: Vec<DVec3> = self.corners[id]
+                .leaving
                 .iter()
-                .any(|&(v, w)| (w - v).normalize_or_zero().dot(l.direction) > 0.5)
-            {
+                .filter(|o| o.direction != l.direction && same_faces(self.c, o, l))
+                .map(|o| o.direction)
+                .collect();
+            if ends.iter().any(|&(v, w)| {
+                let d = (w - v).normalize_or_zero();
+                let along = d.dot(l.direction);
+                along > 0.5 && others.iter().all(|o| d.dot(*o) < along)
+            }) {
                 return true;
             }
         }
@@ -563,16 +596,21 @@ impl<'a> Tracer<'a> {
                 // Stuck: thirty halvings here, or a step as short (steps that short may
                 // still land, creeping at rounding's pace).
                 if halvings > 30 || h < h0 * (-30f64).exp2() {
-                    let Some(id) = self.hand_over(i, j, p, t)? else {
-                        // Stuck where the two faces have become tangent (rods of one radius
-                        // whose axes cross touch where the crease ends): that, not a
-                        // feature too small for the step, is what stops the walk.
-                        let (a, b) = self.pair(i, j, p);
-                        let sine = sine(a.gradient, b.gradient);
-                        if sine < TANGENT {
-                            return Err(CreaseError::Tangent { at: p, sine });
+                    let id = match self.hand_over(i, j, p, t)? {
+                        Some(id) => id,
+                        None => {
+                            let (a, b) = self.pair(i, j, p);
+                            let sine = sine(a.gradient, b.gradient);
+                            if sine >= TANGENT {
+                                return Err(CreaseError::Lost { at: p });
+                            }
+                            // Stuck where the two faces have become tangent: where they
+                            // touch and cross (rods of one radius whose axes cross), a
+                            // corner of four creases; anywhere else a tangent contact,
+                            // which no smaller step passes.
+                            self.tangent_crossing(i, j, p)?
+                                .ok_or(CreaseError::Tangent { at: p, sine })?
                         }
-                        return Err(CreaseError::Lost { at: p });
                     };
                     let v = self.corners[id].at;
                     // The walk crept up to the parting in ever shorter steps, a tie's width
@@ -724,6 +762,7 @@ impl<'a> Tracer<'a> {
                     at: v,
                     leaving,
                     hand_over: false,
+                    tangent: None,
                 });
                 Ok(Some(Event::Corner(self.corners.len() - 1)))
             }
@@ -829,6 +868,7 @@ impl<'a> Tracer<'a> {
                 at: v,
                 leaving: vec![behind, ahead],
                 hand_over: true,
+                tangent: None,
             });
             return Ok(Some(self.corners.len() - 1));
         }
@@ -1070,6 +1110,13 @@ impl<'a> Tracer<'a> {
             at: fine[fine.len() / 2],
         })
     }
+}
+
+/// Whether two creases leaving a corner are of the same two faces.
+fn same_faces(c: &mut Creased, a: &Leaving, b: &Leaving) -> bool {
+    let (a0, a1) = (c.class(a.faces[0].0), c.class(a.faces[1].0));
+    let (b0, b1) = (c.class(b.faces[0].0), c.class(b.faces[1].0));
+    (a0 == b0 && a1 == b1) || (a0 == b1 && a1 == b0)
 }
 
 /// |n1 × n2| of the unit normals (0 where a gradient vanishes).
