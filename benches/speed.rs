@@ -11,13 +11,14 @@
 //!   and extracting its mesh; the grid spacing is chosen so that its mean edge length equals
 //!   surfc's (calibrated once, both printed);
 //! - `march`: surfc's verified march alone (compiled surface, native code), for the cases with
-//!   a start point and no creases (`march::march` does not trace creases);
+//!   a start point and no creases (`march::march` does not trace creases: not for
+//!   `cad_plate`);
 //! - `mesh_1t`, `mesh_2t`: the whole `surfc mesh` path of the gallery file (parse, compile,
 //!   march, verification, report) on a rayon pool of one and two threads.
 //!
 //! `cargo bench --bench speed` (docs/speed.md); `SPEED_ROUNDS` sets the interleaved rounds
 //! (default 5), `SPEED_CASES` a comma-separated subset of
-//! `sphere,genus3,three_cylinders` (or `finer_sphere`: the sphere at step 0.005, run
+//! `sphere,genus3,three_cylinders,cad_plate` (or `finer_sphere`: the sphere at step 0.005, run
 //! only when named).
 
 use std::hint::black_box;
@@ -63,6 +64,29 @@ fn three_cylinders(x: f32, y: f32, z: f32) -> f32 {
     let f2 = (y + 4.0).powi(2) + z * z - 4.0;
     let f3 = (y - 4.0).powi(2) + z * z - 4.0;
     f1 * f2 * f3 - 2287.5587
+}
+
+/// `benches/cad_plate.surf` as surfc lowers it (`sema::solids`): a box is the max of its six
+/// face planes, `cylinder(r, h)` max(hypot(x, y) − r, |z| − h/2), union min, difference
+/// max(a, −b), each in surfc's order of operands.
+fn cad_plate(x: f32, y: f32, z: f32) -> f32 {
+    let cylinder = |x: f32, y: f32, z: f32, r: f32, h: f32| (x.hypot(y) - r).max(z.abs() - 0.5 * h);
+    let plate = (-2.0 - x)
+        .max(x - 2.0)
+        .max(-1.5 - y)
+        .max(y - 1.5)
+        .max(-0.2 - z)
+        .max(z - 0.2);
+    let mut holes = f32::INFINITY;
+    for hx in [-1.6f32, -0.9, 0.9, 1.6] {
+        for hy in [-1.0f32, 0.0, 1.0] {
+            holes = holes.min(cylinder(x - hx, y - hy, z, 0.15, 1.0));
+        }
+    }
+    let bosses =
+        cylinder(x, y + 0.7, z - 0.35, 0.35, 0.9).min(cylinder(x, y - 0.7, z - 0.35, 0.35, 0.9));
+    let boss_holes = cylinder(x, y + 0.7, z, 0.15, 2.0).min(cylinder(x, y - 0.7, z, 0.15, 2.0));
+    plate.max(-holes).min(bosses).max(-boss_holes)
 }
 
 fn cases() -> Vec<Case> {
@@ -116,6 +140,20 @@ fn cases() -> Vec<Case> {
             mesh_box: Some((v(-7.0, -7.0, -7.0), v(7.0, 7.0, 5.0))),
             grid_box: (v(-7.0, -7.0, -7.0), v(7.0, 7.0, 5.0)),
             f: three_cylinders,
+            by_default: true,
+        },
+        // The CAD part of issue 41: about 30 primitives under min and max, every edge a crease
+        // (marched face by face up to its traced creases: docs/creases.md), where sampling a
+        // grid costs more than on the algebraic surfaces.
+        Case {
+            name: "cad_plate_0.015",
+            source: include_str!("cad_plate.surf").to_string(),
+            surface: "part",
+            step: 0.015,
+            start: None,
+            mesh_box: Some((v(-2.1, -1.6, -0.3), v(2.1, 1.6, 0.9))),
+            grid_box: (v(-2.1, -1.6, -0.3), v(2.1, 1.6, 0.9)),
+            f: cad_plate,
             by_default: true,
         },
         // The sphere at half the step: how the ratio moves with the step. surfc's work grows
