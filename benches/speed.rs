@@ -1,17 +1,25 @@
-//! surfc against fast-surface-nets (docs/speed.md, issue 14): the same surface, the same box,
-//! the same mean edge length, in one run. For each case it prints one line of medians of
-//! interleaved runs and their ratios (so a load from elsewhere on the machine falls on all
-//! alike), then criterion measures each part on its own:
+//! surfc against fast-surface-nets (docs/speed.md, issues 14 and 41): the same surface, the
+//! same box, the same mean edge length, in one run. For each case it prints two lines: the
+//! medians of interleaved runs and their ratios (so a load from elsewhere on the machine falls
+//! on all alike), and the one-thread mesh call's triangles, seconds, nanoseconds and
+//! evaluations of the surface per output vertex (point evaluations, value alone or with the
+//! gradient, and interval evaluations, counted by the compiled surfaces of the whole
+//! `surfc mesh` path: `surface::compiled::evaluations`, in the untimed run that calibrates
+//! the grid); then criterion measures each part on its own; and after the last case a table
+//! of all of them:
 //! - `fsn`: fast-surface-nets sampling the formula (f32, native Rust) on a grid over the box
 //!   and extracting its mesh; the grid spacing is chosen so that its mean edge length equals
 //!   surfc's (calibrated once, both printed);
-//! - `march`: surfc's verified march alone (compiled surface, native code);
+//! - `march`: surfc's verified march alone (compiled surface, native code), for the cases with
+//!   a start point and no creases (`march::march` does not trace creases: not for
+//!   `cad_plate`);
 //! - `mesh_1t`, `mesh_2t`: the whole `surfc mesh` path of the gallery file (parse, compile,
 //!   march, verification, report) on a rayon pool of one and two threads.
 //!
 //! `cargo bench --bench speed` (docs/speed.md); `SPEED_ROUNDS` sets the interleaved rounds
-//! (default 5), `SPEED_CASES` a comma-separated subset of `sphere,genus3,three_cylinders`
-//! (or `finer_sphere`: the sphere at step 0.005, run only when named).
+//! (default 5), `SPEED_CASES` a comma-separated subset of
+//! `sphere,genus3,three_cylinders,cad_plate` (or `finer_sphere`: the sphere at step 0.005, run
+//! only when named).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -22,6 +30,7 @@ use fast_surface_nets::{SurfaceNetsBuffer, surface_nets};
 use glam::DVec3;
 use surfc::march::{MarchInput, MarchSettings, march};
 use surfc::pipeline::mesh_source;
+use surfc::surface::compiled::evaluations;
 
 /// One case: a gallery file at a step, the formula for fast-surface-nets and the box.
 struct Case {
@@ -30,7 +39,8 @@ struct Case {
     /// The surface's name in the file (compiled for `march`).
     surface: &'static str,
     step: f64,
-    start: DVec3,
+    /// The start point of `march`, None where `march::march` does not apply (creases).
+    start: Option<DVec3>,
     /// The box surfc meshes in, if the block has one.
     mesh_box: Option<(DVec3, DVec3)>,
     /// The box fast-surface-nets samples (the block's box, or one around the surface).
@@ -56,6 +66,29 @@ fn three_cylinders(x: f32, y: f32, z: f32) -> f32 {
     f1 * f2 * f3 - 2287.5587
 }
 
+/// `benches/cad_plate.surf` as surfc lowers it (`sema::solids`): a box is the max of its six
+/// face planes, `cylinder(r, h)` max(hypot(x, y) − r, |z| − h/2), union min, difference
+/// max(a, −b), each in surfc's order of operands.
+fn cad_plate(x: f32, y: f32, z: f32) -> f32 {
+    let cylinder = |x: f32, y: f32, z: f32, r: f32, h: f32| (x.hypot(y) - r).max(z.abs() - 0.5 * h);
+    let plate = (-2.0 - x)
+        .max(x - 2.0)
+        .max(-1.5 - y)
+        .max(y - 1.5)
+        .max(-0.2 - z)
+        .max(z - 0.2);
+    let mut holes = f32::INFINITY;
+    for hx in [-1.6f32, -0.9, 0.9, 1.6] {
+        for hy in [-1.0f32, 0.0, 1.0] {
+            holes = holes.min(cylinder(x - hx, y - hy, z, 0.15, 1.0));
+        }
+    }
+    let bosses =
+        cylinder(x, y + 0.7, z - 0.35, 0.35, 0.9).min(cylinder(x, y - 0.7, z - 0.35, 0.35, 0.9));
+    let boss_holes = cylinder(x, y + 0.7, z, 0.15, 2.0).min(cylinder(x, y - 0.7, z, 0.15, 2.0));
+    plate.max(-holes).min(bosses).max(-boss_holes)
+}
+
 fn cases() -> Vec<Case> {
     let at = |text: &str, from: &str, to: &str| {
         assert!(text.contains(from), "the gallery file has `{from}`");
@@ -71,7 +104,7 @@ fn cases() -> Vec<Case> {
         ),
         surface: "sphere",
         step,
-        start: v(1.0, 1.0, 1.0),
+        start: Some(v(1.0, 1.0, 1.0)),
         mesh_box: None,
         grid_box: (v(-2.05, -2.05, -2.05), v(2.05, 2.05, 2.05)),
         f: |x, y, z| x * x + y * y + z * z - 4.0,
@@ -88,7 +121,7 @@ fn cases() -> Vec<Case> {
             ),
             surface: "genus3",
             step: 0.05,
-            start: v(0.0, 3.0, 0.0),
+            start: Some(v(0.0, 3.0, 0.0)),
             mesh_box: None,
             grid_box: (v(-6.5, -4.0, -2.5), v(6.5, 4.0, 2.5)),
             f: genus3,
@@ -103,10 +136,24 @@ fn cases() -> Vec<Case> {
             ),
             surface: "three_cylinders",
             step: 0.1,
-            start: v(0.0, -4.0, -2.0),
+            start: Some(v(0.0, -4.0, -2.0)),
             mesh_box: Some((v(-7.0, -7.0, -7.0), v(7.0, 7.0, 5.0))),
             grid_box: (v(-7.0, -7.0, -7.0), v(7.0, 7.0, 5.0)),
             f: three_cylinders,
+            by_default: true,
+        },
+        // The CAD part of issue 41: about 30 primitives under min and max, every edge a crease
+        // (marched face by face up to its traced creases: docs/creases.md), where sampling a
+        // grid costs more than on the algebraic surfaces.
+        Case {
+            name: "cad_plate_0.015",
+            source: include_str!("cad_plate.surf").to_string(),
+            surface: "part",
+            step: 0.015,
+            start: None,
+            mesh_box: Some((v(-2.1, -1.6, -0.3), v(2.1, 1.6, 0.9))),
+            grid_box: (v(-2.1, -1.6, -0.3), v(2.1, 1.6, 0.9)),
+            f: cad_plate,
             by_default: true,
         },
         // The sphere at half the step: how the ratio moves with the step. surfc's work grows
@@ -189,32 +236,68 @@ fn pool(threads: usize) -> rayon::ThreadPool {
         .expect("a thread pool")
 }
 
-fn bench_case(c: &mut Criterion, case: &Case, rounds: usize) {
+/// What a case measured, for the table after the last case.
+struct Row {
+    name: &'static str,
+    triangles: usize,
+    vertices: usize,
+    /// Medians of fast-surface-nets, march (None where it does not apply), mesh on one and
+    /// on two threads, seconds.
+    fsn: f64,
+    march: Option<f64>,
+    mesh_1t: f64,
+    mesh_2t: f64,
+    /// Evaluations of the one-thread mesh call: values, values with gradients, intervals.
+    values: u64,
+    value_gradients: u64,
+    intervals: u64,
+}
+
+impl Row {
+    fn per_vertex(&self, n: u64) -> f64 {
+        n as f64 / self.vertices.max(1) as f64
+    }
+}
+
+fn bench_case(c: &mut Criterion, case: &Case, rounds: usize) -> Row {
     let (one, two) = (pool(1), pool(2));
     let mesh = |p: &rayon::ThreadPool| {
         p.install(|| {
             let m = mesh_source(&case.source).unwrap_or_else(|e| panic!("{}: {e:?}", case.name));
-            (m[0].report.triangles, m[0].report.stats.edge_mean)
+            let r = &m[0].report;
+            (r.triangles, r.vertices, r.stats.edge_mean)
         })
     };
-    let input = MarchInput {
-        bbox: case.mesh_box,
-        ..MarchInput::from_point(case.step, case.start)
-    };
-    let settings = MarchSettings::default();
-    let run_march = || {
+    let run_march = |start: DVec3| {
+        let input = MarchInput {
+            bbox: case.mesh_box,
+            ..MarchInput::from_point(case.step, start)
+        };
         one.install(|| {
             let mut s = compiled(case);
-            march(&mut s, &input, &settings)
+            march(&mut s, &input, &MarchSettings::default())
                 .map(|m| m.triangles.len())
                 .unwrap_or_else(|e| panic!("{}: {e}", case.name))
         })
     };
-    // The grid spacing that gives fast-surface-nets surfc's mean edge length.
-    let (surfc_triangles, surfc_edge) = mesh(&one);
-    let (_, first) = fsn(case.f, case.grid_box, surfc_edge);
-    let spacing = surfc_edge * surfc_edge / first;
-    let (fsn_triangles, fsn_edge) = fsn(case.f, case.grid_box, spacing);
+    // The evaluations of the whole one-thread mesh call, counted by the compiled surfaces it
+    // builds (added to the totals as each is dropped, all of them by the time it returns),
+    // in this untimed run; and the grid spacing that gives fast-surface-nets surfc's mean
+    // edge length.
+    let before = evaluations();
+    let (surfc_triangles, surfc_vertices, surfc_edge) = mesh(&one);
+    let evals = evaluations().since(&before);
+    // The mean edge is nearly proportional to the spacing; a second correction where it is
+    // not yet within 2·10⁻⁴ (the creases of `cad_plate`).
+    let mut spacing = surfc_edge;
+    let (mut fsn_triangles, mut fsn_edge) = fsn(case.f, case.grid_box, spacing);
+    for _ in 0..2 {
+        if (fsn_edge / surfc_edge - 1.0).abs() < 2e-4 {
+            break;
+        }
+        spacing *= surfc_edge / fsn_edge;
+        (fsn_triangles, fsn_edge) = fsn(case.f, case.grid_box, spacing);
+    }
 
     // Interleaved medians and their ratios.
     let time = |f: &dyn Fn()| {
@@ -228,8 +311,10 @@ fn bench_case(c: &mut Criterion, case: &Case, rounds: usize) {
             time(&|| {
                 black_box(fsn(case.f, case.grid_box, spacing));
             }),
-            time(&|| {
-                black_box(run_march());
+            case.start.map_or(f64::NAN, |start| {
+                time(&|| {
+                    black_box(run_march(start));
+                })
             }),
             time(&|| {
                 black_box(mesh(&one));
@@ -245,22 +330,51 @@ fn bench_case(c: &mut Criterion, case: &Case, rounds: usize) {
         t[t.len() / 2]
     };
     let [f, m, m1, m2] = [0, 1, 2, 3].map(median);
+    let row = Row {
+        name: case.name,
+        triangles: surfc_triangles,
+        vertices: surfc_vertices,
+        fsn: f,
+        march: case.start.map(|_| m),
+        mesh_1t: m1,
+        mesh_2t: m2,
+        values: evals.values,
+        value_gradients: evals.value_gradients,
+        intervals: evals.intervals,
+    };
+    let march_text = |t: Option<f64>, digits: usize, unit: &str| {
+        t.map_or("— (not run: creases)".to_string(), |t| {
+            format!("{t:.digits$}{unit}")
+        })
+    };
     eprintln!(
-        "speed {}: fast-surface-nets {:.3} s ({} triangles, mean edge {:.5}, spacing {:.5}); surfc march {:.3} s, mesh 1 thread {:.3} s, 2 threads {:.3} s ({} triangles, mean edge {:.5}); ratio to fast-surface-nets: march {:.2}, mesh 1 thread {:.2}, 2 threads {:.2} (medians of {} interleaved rounds)",
+        "speed {}: fast-surface-nets {:.3} s ({} triangles, mean edge {:.5}, spacing {:.5}); surfc march {}, mesh 1 thread {:.3} s, 2 threads {:.3} s ({} triangles, mean edge {:.5}); ratio to fast-surface-nets: march {}, mesh 1 thread {:.2}, 2 threads {:.2} (medians of {} interleaved rounds)",
         case.name,
         f,
         fsn_triangles,
         fsn_edge,
         spacing,
-        m,
+        march_text(row.march, 3, " s"),
         m1,
         m2,
         surfc_triangles,
         surfc_edge,
-        m / f,
+        march_text(row.march.map(|m| m / f), 2, ""),
         m1 / f,
         m2 / f,
         rounds
+    );
+    eprintln!(
+        "speed {}: mesh 1 thread: {} triangles, {} vertices, {:.3} s, {:.0} ns a vertex; evaluations a vertex: {:.2} at points ({:.2} values, {:.2} values with gradients), {:.3} on intervals",
+        case.name,
+        row.triangles,
+        row.vertices,
+        m1,
+        m1 * 1e9 / row.vertices.max(1) as f64,
+        row.per_vertex(evals.points()),
+        row.per_vertex(evals.values),
+        row.per_vertex(evals.value_gradients),
+        row.per_vertex(evals.intervals),
     );
 
     let mut g = c.benchmark_group(format!("speed/{}", case.name));
@@ -268,10 +382,43 @@ fn bench_case(c: &mut Criterion, case: &Case, rounds: usize) {
     g.bench_function("fsn", |b| {
         b.iter(|| black_box(fsn(case.f, case.grid_box, spacing)))
     });
-    g.bench_function("march", |b| b.iter(|| black_box(run_march())));
+    if let Some(start) = case.start {
+        g.bench_function("march", |b| b.iter(|| black_box(run_march(start))));
+    }
     g.bench_function("mesh_1t", |b| b.iter(|| black_box(mesh(&one))));
     g.bench_function("mesh_2t", |b| b.iter(|| black_box(mesh(&two))));
     g.finish();
+    row
+}
+
+/// The cases run, one line each (Markdown, for docs/speed.md).
+fn print_table(rows: &[Row], rounds: usize) {
+    if rows.is_empty() {
+        return;
+    }
+    eprintln!(
+        "speed: medians of {rounds} interleaved rounds; mesh 1 thread, its evaluations a vertex, and ratios to fast-surface-nets\n\
+         | case | triangles | s (1 thread) | ns/vertex | point evals/vertex | interval evals/vertex | fast-surface-nets s | ratio march / 1 thread / 2 threads |\n\
+         |---|---|---|---|---|---|---|---|"
+    );
+    for r in rows {
+        let march = r
+            .march
+            .map_or("—".to_string(), |m| format!("{:.2}", m / r.fsn));
+        eprintln!(
+            "| {} | {} | {:.3} | {:.0} | {:.2} | {:.3} | {:.3} | {} / {:.2} / {:.2} |",
+            r.name,
+            r.triangles,
+            r.mesh_1t,
+            r.mesh_1t * 1e9 / r.vertices.max(1) as f64,
+            r.per_vertex(r.values + r.value_gradients),
+            r.per_vertex(r.intervals),
+            r.fsn,
+            march,
+            r.mesh_1t / r.fsn,
+            r.mesh_2t / r.fsn
+        );
+    }
 }
 
 fn benches(c: &mut Criterion) {
@@ -281,15 +428,17 @@ fn benches(c: &mut Criterion) {
         .unwrap_or(5usize)
         .max(1);
     let only = std::env::var("SPEED_CASES").ok();
+    let mut rows = Vec::new();
     for case in cases() {
         let wanted = only.as_deref().map_or(case.by_default, |o| {
             o.split(',')
                 .any(|w| !w.is_empty() && case.name.starts_with(w.trim()))
         });
         if wanted {
-            bench_case(c, &case, rounds);
+            rows.push(bench_case(c, &case, rounds));
         }
     }
+    print_table(&rows, rounds);
 }
 
 criterion_group!(speed_benches, benches);

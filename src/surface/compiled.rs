@@ -3,6 +3,8 @@
 //! (the compiler's tape, each `dist` child built by a factory), [`compile_spine`] (the branches
 //! of a creased surface), [`compile_patch`].
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use glam::DVec3;
 
 use super::{Fault, Patch, PatchJet, Surface, ValueGrad};
@@ -17,6 +19,71 @@ use crate::survey::spine::Spine;
 #[derive(Debug)]
 pub struct CompiledSurface {
     vm: Vm,
+    /// The tape's runs on this surface so far, added to the process's [`evaluations`] when
+    /// it is dropped.
+    counts: Evaluations,
+}
+
+/// Runs of compiled surface tapes, for the benches' evaluations per output vertex
+/// (`benches/speed.rs`): at points, value alone or value and gradient (a batch counts its
+/// points), and on boxes (`bound`, `bound_gradient`: interval evaluations). A `dist` child's
+/// own tape counts its runs too.
+///
+/// Why a hook in the library: `surfc mesh`'s path (`pipeline::mesh_source`) builds its
+/// surfaces itself (`pipeline::build::Builder`: the block's surface, the spine's branches,
+/// the fresh oracles of every fork), so a bench cannot wrap them as `benches/march.rs` wraps
+/// the surface it marches. Each surface counts in plain fields of its own (an add beside a
+/// run of the tape, no shared memory touched, no branch: nothing measurable) and adds them to
+/// the process's totals once, when it is dropped. Counting changes no value computed. A
+/// cargo feature would not be cheaper, and the bench could turn it on only through a
+/// dev-dependency of the crate on itself, which turns it on for every test build as well.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Evaluations {
+    /// f at a point.
+    pub values: u64,
+    /// f and ∇f at a point.
+    pub value_gradients: u64,
+    /// f bounded over a box, with or without bounds on its partials.
+    pub intervals: u64,
+}
+
+impl Evaluations {
+    /// Point evaluations: value alone, or value and gradient.
+    pub fn points(&self) -> u64 {
+        self.values + self.value_gradients
+    }
+
+    /// The evaluations counted since `earlier`.
+    pub fn since(&self, earlier: &Evaluations) -> Evaluations {
+        Evaluations {
+            values: self.values - earlier.values,
+            value_gradients: self.value_gradients - earlier.value_gradients,
+            intervals: self.intervals - earlier.intervals,
+        }
+    }
+}
+
+static VALUES: AtomicU64 = AtomicU64::new(0);
+static VALUE_GRADIENTS: AtomicU64 = AtomicU64::new(0);
+static INTERVALS: AtomicU64 = AtomicU64::new(0);
+
+/// The evaluations of every compiled surface dropped so far in this process (a surface still
+/// alive is not counted yet).
+pub fn evaluations() -> Evaluations {
+    Evaluations {
+        values: VALUES.load(Ordering::Relaxed),
+        value_gradients: VALUE_GRADIENTS.load(Ordering::Relaxed),
+        intervals: INTERVALS.load(Ordering::Relaxed),
+    }
+}
+
+impl Drop for CompiledSurface {
+    fn drop(&mut self) {
+        let c = self.counts;
+        VALUES.fetch_add(c.values, Ordering::Relaxed);
+        VALUE_GRADIENTS.fetch_add(c.value_gradients, Ordering::Relaxed);
+        INTERVALS.fetch_add(c.intervals, Ordering::Relaxed);
+    }
 }
 
 impl CompiledSurface {
@@ -24,6 +91,7 @@ impl CompiledSurface {
     pub fn new(tape: Tape, children: Vec<Box<dyn Surface>>) -> Result<Self, VmError> {
         Ok(CompiledSurface {
             vm: Vm::new(tape, children)?,
+            counts: Evaluations::default(),
         })
     }
 
@@ -44,17 +112,20 @@ impl CompiledSurface {
 
     /// f at each point: `out[i] = f(points[i])` for i below the shorter length.
     pub fn value_batch(&mut self, points: &[DVec3], out: &mut [f64]) {
+        self.counts.values += points.len().min(out.len()) as u64;
         self.vm.value_batch(points, out);
     }
 
     /// f and ∇f at each point, for i below the shorter length.
     pub fn value_gradient_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) {
+        self.counts.value_gradients += points.len().min(out.len()) as u64;
         self.vm.value_grad_batch(points, out);
     }
 }
 
 impl Surface for CompiledSurface {
     fn value(&mut self, p: DVec3) -> f64 {
+        self.counts.values += 1;
         self.vm.value(&[p.x, p.y, p.z])
     }
 
@@ -64,11 +135,13 @@ impl Surface for CompiledSurface {
         if self.vm.has_children() {
             return false;
         }
+        self.counts.value_gradients += points.len().min(out.len()) as u64;
         self.vm.value_grad_batch(points, out);
         true
     }
 
     fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+        self.counts.value_gradients += 1;
         let g = self.vm.value_grad(&[p.x, p.y, p.z]);
         ValueGrad {
             value: g.v,
@@ -78,10 +151,12 @@ impl Surface for CompiledSurface {
 
     /// The tape run on intervals (interpreted: the search asks a few thousand cells).
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
+        self.counts.intervals += 1;
         Some(self.vm.interval(lo, hi))
     }
 
     fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
+        self.counts.intervals += 1;
         Some(self.vm.interval_grad(lo, hi, axes))
     }
 
