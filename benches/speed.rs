@@ -9,7 +9,7 @@
 //! of all of them:
 //! - `fsn`: fast-surface-nets sampling the formula (f32, native Rust) on a grid over the box
 //!   and extracting its mesh; the grid spacing is chosen so that its mean edge length equals
-//!   surfc's (calibrated once, both printed);
+//!   surfc's (calibrated by one or two corrections, both printed);
 //! - `march`: surfc's verified march alone (compiled surface, native code), for the cases with
 //!   a start point and no creases (`march::march` does not trace creases: not for
 //!   `cad_plate`);
