@@ -213,7 +213,7 @@ impl Marcher<'_> {
             return Ok(());
         }
         let hm = self.h[pm_id.index()];
-        let nt = if self.rings.len(self.rings.front(m)) <= 3 {
+        let mut nt = if self.rings.len(self.rings.front(m)) <= 3 {
             1
         } else {
             triangle_count(
@@ -225,6 +225,29 @@ impl Marcher<'_> {
                 &self.s,
             )
         };
+        // A new point beside a neighbour would land within `close_neighbour`·δ of the node
+        // beyond that neighbour — which Step 2 never joins to it (second neighbours are no
+        // near partners), so the front would fold there: one triangle fewer. (A band 2.4
+        // steps tall between a front and a bound: the point the paper's split of a wide
+        // triangle makes lands just past the bound, beside its next node, and the march ran
+        // out of the band.)
+        let (t1, t2) = (self.t1[pm_id.index()], self.t2[pm_id.index()]);
+        let w1 = polar(pm, t1, t2, p1);
+        let beyond = [self.p(self.rings.prev(v1)), self.p(self.rings.next(v2))];
+        while nt > 1 {
+            let dw = omega / nt as f64;
+            let near = [1, nt - 1].iter().any(|&i| {
+                let w = w1 + i as f64 * dw;
+                let q = pm + hm * (w.cos() * t1 + w.sin() * t2);
+                beyond
+                    .iter()
+                    .any(|b| b.distance(q) < self.s.close_neighbour * hm)
+            });
+            if !near {
+                break;
+            }
+            nt -= 1;
+        }
         if self.trace {
             eprintln!(
                 "march: complete {} (point {}) angle {:.4} with {} triangle(s)",
@@ -233,8 +256,6 @@ impl Marcher<'_> {
         }
         let mut new_points = Vec::with_capacity(nt as usize - 1);
         if nt > 1 {
-            let (t1, t2) = (self.t1[pm_id.index()], self.t2[pm_id.index()]);
-            let w1 = polar(pm, t1, t2, p1);
             let dw = omega / nt as f64;
             for i in 1..nt {
                 let w = w1 + i as f64 * dw;
