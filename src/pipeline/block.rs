@@ -423,7 +423,7 @@ fn finish(
 }
 
 /// What the user may change when the marcher stops with `e`.
-fn march_help(e: &MarchError) -> Option<&'static str> {
+pub(super) fn march_help(e: &MarchError) -> Option<&'static str> {
     Some(match e {
         MarchError::Refining { source, .. } => return march_help(source),
         MarchError::TooManyTriangles { .. } => {
@@ -455,7 +455,7 @@ fn march_help(e: &MarchError) -> Option<&'static str> {
             "`uniform: true` keeps the step everywhere: a smaller `step` resolves the feature; without `uniform` the local step refines there"
         }
         MarchError::HiddenCrease { .. } => {
-            "creases are traced where `min`, `max`, `abs` or a sharp boolean or primitive is reached from the outside of the formula through sums, constant factors and smooth booleans; one inside another function (`exp`, `sin`, a product) hides its edges: keep sharp parts outside such functions, or round the edge with a smooth boolean (docs/creases.md)"
+            "creases are traced where `min`, `max`, `abs` or a sharp boolean or primitive is reached from the outside of the formula through sums, constant factors and smooth booleans; one inside another function (`exp`, `sin`, a product) hides its edges: keep sharp parts outside such functions, or round the edge with a smooth boolean (docs/creases.md). Inside `dist` and `offset` a concave edge of the solid is such an edge: the offset of a `union` is traced where its operands cross, but not where they share a face plane or inside one operand"
         }
         MarchError::PolygonTooShort { .. }
         | MarchError::PolygonSpacing { .. }

@@ -11,7 +11,7 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::build::Builder;
-use super::components::{Marching, SearchSettings};
+use super::components::{Marching, SearchError, SearchSettings};
 use super::crease_net::{self, CreaseError, CreaseSettings, CreasedMesh};
 use crate::compile::CompileError;
 use crate::diag::{Diagnostic, messages};
@@ -153,8 +153,15 @@ fn failed(def: &MeshDef, e: &CreaseError) -> Diagnostic {
         CreaseError::Tangent { .. } | CreaseError::SingularCorner { .. } => Some(
             "move or resize a part a little (apart, or into each other): where pieces touch or meet more than three at a point, the crease has no direction",
         ),
+        CreaseError::PartlyOneSheet { .. } => Some(
+            "operands that share a face plane beside a crease (solids flush on a face, then rounded by `offset`) cannot be meshed yet: let one stand a little inside the other's outline, or round with `smooth_union`",
+        ),
         CreaseError::LeftPiece { .. } | CreaseError::Lost { .. } => {
             Some("a smaller `step` lets the crease search see smaller features")
+        }
+        CreaseError::March { source, .. }
+        | CreaseError::Search(SearchError::March { source, .. }) => {
+            super::block::march_help(source)
         }
         _ => None,
     };

@@ -127,6 +127,10 @@ pub enum FaceError {
     Lost { at: DVec3 },
     #[error("the faces at {at} cannot be told apart (f is zero or undefined around it)")]
     Undecided { at: DVec3 },
+    #[error(
+        "two pieces of the surface cross at {at} that are one sheet elsewhere (operands that coincide on part of a face only)"
+    )]
+    PartlyOneSheet { at: DVec3 },
 }
 
 /// The local frame of the checks: the step they are relative to and the tie tolerance.
@@ -379,13 +383,13 @@ pub fn crossing(
         [(fa, da), (fb, db)] => {
             let opposite = da.dot(db) < -1.0 + 1e-9;
             if c.class(fa) == c.class(fb) {
+                // Two forms found to be one sheet somewhere (one face) meet here at an angle:
+                // they coincide on part of a sheet only (the offsets of two solids flush on a
+                // face), and the crease between them ends where they become one.
                 return if opposite {
                     Ok(Crossing::Smooth)
                 } else {
-                    Err(FaceError::Tangent {
-                        at: p,
-                        sine: da.cross(db).length(),
-                    })
+                    Err(FaceError::PartlyOneSheet { at: p })
                 };
             }
             if opposite && !c.by_selector(fa, fb) {

@@ -187,3 +187,31 @@ fn the_offset_of_an_l_meshes_right_or_is_refused_in_seconds() {
     };
     meshes_right_or_refuses(source, &outside, 0.2, Duration::from_secs(60));
 }
+
+/// Rounded by `offset`, an upright standing on a plate and flush with its underside: the two
+/// rounded solids are one sheet on the underside and cross around the upright, which the
+/// faces of the crease net cannot hold (one face on one part, two across the crease). Refused
+/// where they cross, with what to change — not meshed wrong, and not read as a tangency.
+#[test]
+fn solids_flush_on_a_face_and_rounded_are_refused_where_they_cross() {
+    let source = "surface s = union(box((0, 0, 0), (2, 1, 0.3)), box((0.8, 0.2, 0), (1.1, 0.8, 1.2)));\n\
+                  surface o = offset(s, 0.1);\n\
+                  mesh o = o { step: 0.05; box: (-0.3, -0.3, -0.3) .. (2.3, 1.3, 1.5); }\n";
+    let d = match mesh_source(source) {
+        Ok(_) => panic!("meshed"),
+        Err(d) => d,
+    };
+    assert_eq!(d[0].code, "E0601", "{d:?}");
+    assert!(
+        d[0].notes
+            .iter()
+            .any(|n| n.contains("that are one sheet elsewhere")),
+        "{d:?}"
+    );
+    assert!(
+        d[0].help
+            .as_deref()
+            .is_some_and(|h| h.contains("smooth_union")),
+        "{d:?}"
+    );
+}

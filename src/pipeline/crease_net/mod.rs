@@ -126,6 +126,10 @@ pub enum CreaseError {
     TooManyForms { at: DVec3 },
     #[error("a crease ends near {at} without a corner where a third piece begins")]
     Lost { at: DVec3 },
+    #[error(
+        "two pieces of the surface cross at {at} that are one sheet elsewhere (operands that coincide on part of a face only)"
+    )]
+    PartlyOneSheet { at: DVec3 },
     #[error("a crease leaves the box at {at}: the box must hold every crease of the surface")]
     LeavesBox { at: DVec3 },
     #[error("a crease near {at} is {length:.3e} long: two of its corners nearly coincide")]
@@ -182,6 +186,7 @@ impl From<FaceError> for CreaseError {
             FaceError::SingularCorner { at, pieces } => CreaseError::SingularCorner { at, pieces },
             FaceError::Lost { at } => CreaseError::Lost { at },
             FaceError::Undecided { at } => CreaseError::Undecided { at },
+            FaceError::PartlyOneSheet { at } => CreaseError::PartlyOneSheet { at },
         }
     }
 }
