@@ -154,7 +154,7 @@ fn failed(def: &MeshDef, e: &CreaseError) -> Diagnostic {
             "move or resize a part a little (apart, or into each other): where pieces touch or meet more than three at a point, the crease has no direction",
         ),
         CreaseError::PartlyOneSheet { .. } => Some(
-            "operands that share a face plane beside a crease (solids flush on a face, then rounded by `offset`) cannot be meshed yet: let one stand a little inside the other's outline, or round with `smooth_union`",
+            "operands that are one sheet on part of a face and cross elsewhere (solids flush on a face, rounded by `offset`) could not all be told apart here: let one stand a little inside the other's outline, or round with `smooth_union`",
         ),
         CreaseError::LeftPiece { .. } | CreaseError::Lost { .. } => {
             Some("a smaller `step` lets the crease search see smaller features")

@@ -130,7 +130,7 @@ pub enum FaceError {
     #[error(
         "two pieces of the surface cross at {at} that are one sheet elsewhere (operands that coincide on part of a face only)"
     )]
-    PartlyOneSheet { at: DVec3 },
+    PartlyOneSheet { at: DVec3, forms: (usize, usize) },
 }
 
 /// The local frame of the checks: the step they are relative to and the tie tolerance.
@@ -155,7 +155,7 @@ fn tied(c: &mut Creased, p: DVec3, scale: &Scale) -> Vec<(usize, ValueGrad)> {
 }
 
 /// The point of form i's zero set nearest `q` along its gradient (Newton), if it converges.
-fn onto(c: &mut Creased, i: usize, q: DVec3, step: f64) -> Option<DVec3> {
+pub fn onto(c: &mut Creased, i: usize, q: DVec3, step: f64) -> Option<DVec3> {
     let mut x = q;
     for _ in 0..16 {
         let vg = c.form(i, x);
@@ -389,7 +389,10 @@ pub fn crossing(
                 return if opposite {
                     Ok(Crossing::Smooth)
                 } else {
-                    Err(FaceError::PartlyOneSheet { at: p })
+                    Err(FaceError::PartlyOneSheet {
+                        at: p,
+                        forms: (fa, fb),
+                    })
                 };
             }
             if opposite && !c.by_selector(fa, fb) {

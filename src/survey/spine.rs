@@ -15,7 +15,7 @@
 //! traced on F = 0 ∩ {selector = 0} ([`Creased::seam`]): transversal in the saturated region
 //! too, where it is a seam through smooth surface, and the true crease elsewhere.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
 
 use glam::DVec3;
@@ -676,6 +676,9 @@ pub struct Creased {
     enumerated: bool,
     /// Union-find over forms: forms that are one face (the same oriented sheet).
     parent: Vec<usize>,
+    /// Pairs of forms (smaller first) never made one face: one sheet on part of the surface
+    /// only, with a crease between them elsewhere (`keep_apart`).
+    apart: HashSet<(usize, usize)>,
     /// The branches' values and gradients at `at` (the last point asked), as far as asked.
     at: Option<[u64; 3]>,
     cache: Vec<Option<ValueGrad>>,
@@ -731,6 +734,7 @@ impl Creased {
             seams,
             enumerated,
             parent,
+            apart: HashSet::new(),
             at: None,
             cache: vec![None; n],
             local_size: None,
@@ -1032,13 +1036,27 @@ impl Creased {
         r
     }
 
-    /// Records that forms i and j are one face.
+    /// Records that forms i and j are one face (unless they are kept apart).
     pub fn unite(&mut self, i: usize, j: usize) {
+        if self.apart.contains(&(i.min(j), i.max(j))) {
+            return;
+        }
         let (a, b) = (self.class(i), self.class(j));
         if a != b {
             // The smaller id stays the root, so a class's face is its first form.
             let (lo, hi) = (a.min(b), a.max(b));
             self.parent[hi] = lo;
+        }
+    }
+
+    /// Forms i and j are never one face from now on, and every form is its own face again:
+    /// they were found one sheet in one place and crossing at an angle in another (the
+    /// offsets of two solids flush on a face), so the crease search starts over with them
+    /// as two faces that coincide on part of the surface.
+    pub fn keep_apart(&mut self, i: usize, j: usize) {
+        self.apart.insert((i.min(j), i.max(j)));
+        for (k, p) in self.parent.iter_mut().enumerate() {
+            *p = k;
         }
     }
 

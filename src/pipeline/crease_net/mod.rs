@@ -129,7 +129,7 @@ pub enum CreaseError {
     #[error(
         "two pieces of the surface cross at {at} that are one sheet elsewhere (operands that coincide on part of a face only)"
     )]
-    PartlyOneSheet { at: DVec3 },
+    PartlyOneSheet { at: DVec3, forms: (usize, usize) },
     #[error("a crease leaves the box at {at}: the box must hold every crease of the surface")]
     LeavesBox { at: DVec3 },
     #[error("a crease near {at} is {length:.3e} long: two of its corners nearly coincide")]
@@ -186,7 +186,7 @@ impl From<FaceError> for CreaseError {
             FaceError::SingularCorner { at, pieces } => CreaseError::SingularCorner { at, pieces },
             FaceError::Lost { at } => CreaseError::Lost { at },
             FaceError::Undecided { at } => CreaseError::Undecided { at },
-            FaceError::PartlyOneSheet { at } => CreaseError::PartlyOneSheet { at },
+            FaceError::PartlyOneSheet { at, forms } => CreaseError::PartlyOneSheet { at, forms },
         }
     }
 }
@@ -199,6 +199,50 @@ impl From<FaceError> for CreaseError {
 // caller's choice.
 #[allow(clippy::too_many_arguments)]
 pub fn mesh_creased(
+    creased: &mut Creased,
+    whole: &mut dyn Surface,
+    fork: Option<&crate::surface::Fork<'_>>,
+    marching: Marching,
+    bbox: (DVec3, DVec3),
+    march_settings: &MarchSettings,
+    search: &SearchSettings,
+    settings: &CreaseSettings,
+    progress: Option<&Counts>,
+) -> Result<CreasedMesh, CreaseError> {
+    // Two forms found one sheet in one place and crossing at an angle in another (the
+    // offsets of two solids flush on a face) are kept two faces, and the search starts over.
+    let mut kept_apart = 0;
+    loop {
+        match mesh_creased_once(
+            creased,
+            whole,
+            fork,
+            marching,
+            bbox,
+            march_settings,
+            search,
+            settings,
+            progress,
+        ) {
+            Err(CreaseError::PartlyOneSheet { forms: (a, b), .. }) if kept_apart < MAX_APART => {
+                if crate::trace::enabled() {
+                    eprintln!(
+                        "creases: forms {a} and {b} are kept two faces; the search starts over"
+                    );
+                }
+                creased.keep_apart(a, b);
+                kept_apart += 1;
+            }
+            other => return other,
+        }
+    }
+}
+
+/// How many pairs of forms `mesh_creased` keeps apart before it gives up.
+const MAX_APART: usize = 8;
+
+#[allow(clippy::too_many_arguments)]
+fn mesh_creased_once(
     creased: &mut Creased,
     whole: &mut dyn Surface,
     fork: Option<&crate::surface::Fork<'_>>,
@@ -231,7 +275,9 @@ pub fn mesh_creased(
     for (cell_lo, cell_hi, zero) in &cells {
         for (a, &i) in zero.iter().enumerate() {
             for &j in &zero[a + 1..] {
-                if !t.c.adjacent(i, j) || t.c.class(i) == t.c.class(j) {
+                // Forms of one face are looked at too: one sheet in one place, they may
+                // cross in another (`CreaseError::PartlyOneSheet`).
+                if !t.c.adjacent(i, j) {
                     continue;
                 }
                 let Some(seed) = t.seed(i, j, *cell_lo, *cell_hi)? else {
@@ -254,6 +300,7 @@ pub fn mesh_creased(
         }
     }
     t.trace_from_corners(trace)?;
+    t.close_dying_creases()?;
     let tolerance = marching
         .tolerance
         .unwrap_or(march_settings.tolerance * step);

@@ -16,6 +16,7 @@ use crate::survey::faces::{self, Crossing, FaceSettings, Junction, Leaving, Scal
 use crate::survey::sizing::Sizing;
 use crate::survey::spine::{Creased, Spine};
 
+mod dying;
 mod tangent;
 
 /// A traced crease: the forms it was traced on (i, j), its points along ∇Lᵢ × ∇Lⱼ, and the
@@ -25,6 +26,17 @@ pub(super) struct Traced {
     pub points: Vec<DVec3>,
     /// Corner ids at the first and last point; None for a closed crease.
     pub ends: Option<(usize, usize)>,
+    /// A seam through a sheet both forms share (`dying`): the plane (a point, its normal)
+    /// that cuts it out of form i's sheet, and the faces' sides, those of the crease it
+    /// continues. None for a crease.
+    pub seam: Option<Seam>,
+}
+
+/// How a seam between dying ends lies: the plane it is cut by and its faces' sides.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Seam {
+    pub plane: (DVec3, DVec3),
+    pub sides: (bool, bool),
 }
 
 /// A corner: where it is and the creases that leave it.
@@ -38,6 +50,9 @@ pub(super) struct Corner {
     /// their common normal (∇f's way). Each face meets such a corner in two sectors, and
     /// its loops are chained there by the turn around this normal (`join::chain`).
     pub tangent: Option<DVec3>,
+    /// Where a crease of forms (i, j) dies out (`Tracer::dying_end`): the forms and the
+    /// direction the crease would go on, into the sheet they share.
+    pub dying: Option<(usize, usize, DVec3)>,
 }
 
 /// Normals closer than this sine (0.6°) are tangent to a stuck walk: a form with one of its
@@ -429,6 +444,7 @@ impl<'a> Tracer<'a> {
                 forms: (i, j),
                 points: forward,
                 ends: None,
+                seam: None,
             });
         };
         let (mut backward, start) = self.walk(i, j, seed, -1.0, None)?;
@@ -439,6 +455,7 @@ impl<'a> Tracer<'a> {
             forms: (i, j),
             points: backward,
             ends: Some((start, end)),
+            seam: None,
         })
     }
 
@@ -473,6 +490,7 @@ impl<'a> Tracer<'a> {
                         forms: (i, j),
                         points,
                         ends: Some((next, end)),
+                        seam: None,
                     },
                     trace,
                     at,
@@ -608,8 +626,12 @@ impl<'a> Tracer<'a> {
                             // touch and cross (rods of one radius whose axes cross), a
                             // corner of four creases; anywhere else a tangent contact,
                             // which no smaller step passes.
-                            self.tangent_crossing(i, j, p)?
-                                .ok_or(CreaseError::Tangent { at: p, sine })?
+                            match self.tangent_crossing(i, j, p)? {
+                                Some(id) => id,
+                                None => self
+                                    .dying_end(i, j, p, t)?
+                                    .ok_or(CreaseError::Tangent { at: p, sine })?,
+                            }
                         }
                     };
                     let v = self.corners[id].at;
@@ -763,6 +785,7 @@ impl<'a> Tracer<'a> {
                     leaving,
                     hand_over: false,
                     tangent: None,
+                    dying: None,
                 });
                 Ok(Some(Event::Corner(self.corners.len() - 1)))
             }
@@ -869,6 +892,7 @@ impl<'a> Tracer<'a> {
                 leaving: vec![behind, ahead],
                 hand_over: true,
                 tangent: None,
+                dying: None,
             });
             return Ok(Some(self.corners.len() - 1));
         }
@@ -1052,8 +1076,11 @@ impl<'a> Tracer<'a> {
             };
             field[k - 1].0 + w * (field[k].0 - field[k - 1].0)
         });
-        line.resample_at(arcs, |y, dir| self.correct(i, j, y, y, dir))
-            .map_err(|at| CreaseError::Lost { at })
+        match tr.seam {
+            None => line.resample_at(arcs, |y, dir| self.correct(i, j, y, y, dir)),
+            Some(seam) => line.resample_at(arcs, |y, dir| self.on_seam(i, seam.plane, y, dir)),
+        }
+        .map_err(|at| CreaseError::Lost { at })
     }
 
     /// On which side of the crease, walked as traced, each of its faces lies: for the form
@@ -1061,6 +1088,9 @@ impl<'a> Tracer<'a> {
     /// points. Asked of `survey::faces::crossing` at up to `PROBES` traced points (corners
     /// excepted): the answers that decide must agree, and one at least must decide.
     pub fn sides(&mut self, tr: &Traced) -> Result<(bool, bool), CreaseError> {
+        if let Some(seam) = tr.seam {
+            return Ok(seam.sides);
+        }
         let (i, j) = tr.forms;
         let fine = &tr.points;
         let mut probes: Vec<(DVec3, DVec3)> = Vec::new();

@@ -190,6 +190,7 @@ impl Tracer<'_> {
             leaving,
             hand_over: false,
             tangent: Some(normal),
+            dying: None,
         });
         Ok(Some(self.corners.len() - 1))
     }
