@@ -15,7 +15,10 @@
 //!    face is chosen: there the junction, where a third form is zero with them, is solved by
 //!    Newton and asked which creases leave it (`survey::faces::junction`): a crease passing
 //!    through (the walk goes on), or a corner of three faces or more. Creases that leave a
-//!    corner and no seed found are traced from it.
+//!    corner and no seed found are traced from it. A walk stuck where its faces' normals
+//!    meet ends at a tangent crossing (`trace/tangent.rs`: rods of one radius whose axes
+//!    cross, a corner of four creases) or where the crease dies out into a sheet both faces
+//!    share (`trace/dying.rs`: closed by a seam through that sheet).
 //! 4. Polygons: each crease is resampled at the local step of both pieces (corners kept), and
 //!    given to each of its two faces walked so that the face lies on its left.
 //! 5. Pieces: every face's polygons are chained at the corners into loops and marched on the
