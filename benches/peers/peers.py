@@ -257,21 +257,18 @@ def main():
             seconds = f"{median(r[0] for r in runs):.3f} ({median(r[1] for r in runs):.3f})"
             rows.append((name, f"surfc, step {step:g}", seconds, mesh))
 
-            try:
-                size, _ = calibrated(lambda h: run_gmsh(name, h), step, target)
-                runs = [run_gmsh(name, size) for _ in range(args.rounds)]
-                seconds = f"{median(r[0] for r in runs):.3f}"
-                rows.append((name, f"gmsh frontal-Delaunay, size {size:.4f}", seconds, runs[0][1]))
-            except Exception as e:  # noqa: BLE001 (the table says what failed)
-                rows.append((name, "gmsh frontal-Delaunay", f"failed: {e}", None))
-
-            try:
-                res, _ = calibrated(lambda h: run_ferreus(name, h), step, target)
-                runs = [run_ferreus(name, res) for _ in range(args.rounds)]
-                seconds = f"{median(r[0] for r in runs):.3f}"
-                rows.append((name, f"ferreus-rmt, resolution {res:.4f}", seconds, runs[0][1]))
-            except Exception as e:  # noqa: BLE001 (the table says what failed)
-                rows.append((name, "ferreus-rmt", f"failed: {e}", None))
+            # Each peer at the parameter that gives surfc's mean edge.
+            for peer, run, knob in [
+                ("gmsh frontal-Delaunay", run_gmsh, "size"),
+                ("ferreus-rmt", run_ferreus, "resolution"),
+            ]:
+                try:
+                    value, _ = calibrated(lambda h: run(name, h), step, target)
+                    runs = [run(name, value) for _ in range(args.rounds)]
+                    seconds = f"{median(r[0] for r in runs):.3f}"
+                    rows.append((name, f"{peer}, {knob} {value:.4f}", seconds, runs[0][1]))
+                except Exception as e:  # noqa: BLE001 (the table says what failed)
+                    rows.append((name, peer, f"failed: {e}", None))
 
     print(
         "| surface | mesher | wall s | triangles | mean edge | smallest angle "

@@ -233,12 +233,15 @@ impl Marcher<'_> {
         // out of the band.)
         let (t1, t2) = (self.t1[pm_id.index()], self.t2[pm_id.index()]);
         let w1 = polar(pm, t1, t2, p1);
+        // The direction of the i-th of the nt − 1 new points.
+        let along = |i: u32, nt: u32| {
+            let w = w1 + i as f64 * (omega / nt as f64);
+            w.cos() * t1 + w.sin() * t2
+        };
         let beyond = [self.p(self.rings.prev(v1)), self.p(self.rings.next(v2))];
         while nt > 1 {
-            let dw = omega / nt as f64;
             let near = [1, nt - 1].iter().any(|&i| {
-                let w = w1 + i as f64 * dw;
-                let q = pm + hm * (w.cos() * t1 + w.sin() * t2);
+                let q = pm + hm * along(i, nt);
                 beyond
                     .iter()
                     .any(|b| b.distance(q) < self.s.close_neighbour * hm)
@@ -256,10 +259,8 @@ impl Marcher<'_> {
         }
         let mut new_points = Vec::with_capacity(nt as usize - 1);
         if nt > 1 {
-            let dw = omega / nt as f64;
             for i in 1..nt {
-                let w = w1 + i as f64 * dw;
-                new_points.push(self.graded_point(pm_id, w.cos() * t1 + w.sin() * t2, hm)?);
+                new_points.push(self.graded_point(pm_id, along(i, nt), hm)?);
             }
         }
         let mut prev = p1_id;

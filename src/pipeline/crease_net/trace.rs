@@ -21,6 +21,7 @@ mod tangent;
 
 /// A traced crease: the forms it was traced on (i, j), its points along ∇Lᵢ × ∇Lⱼ, and the
 /// corners at its ends.
+#[derive(Clone)]
 pub(super) struct Traced {
     pub forms: (usize, usize),
     pub points: Vec<DVec3>,
@@ -527,7 +528,10 @@ impl<'a> Tracer<'a> {
             let others: Vec<DVec3> = self.corners[id]
                 .leaving
                 .iter()
-                .filter(|o| o.direction != l.direction && same_faces(self.c, o, l))
+                .filter(|o| {
+                    o.direction != l.direction
+                        && same_faces(self.c, o.faces, l.faces[0].0, l.faces[1].0)
+                })
                 .map(|o| o.direction)
                 .collect();
             if ends.iter().any(|&(v, w)| {
@@ -909,7 +913,6 @@ impl<'a> Tracer<'a> {
         q: DVec3,
         standing: Option<DVec3>,
     ) -> Option<usize> {
-        let (ci, cj) = (self.c.class(i), self.c.class(j));
         let seg = q - p;
         let near = 1e-6 * self.step;
         (0..self.corners.len()).find(|&id| {
@@ -923,9 +926,7 @@ impl<'a> Tracer<'a> {
             if (p + s * seg).distance(corner.at) > near.max(0.1 * seg.length()) {
                 return false;
             }
-            let faces = corner.leaving[0].faces;
-            let (a, b) = (self.c.class(faces[0].0), self.c.class(faces[1].0));
-            (a == ci && b == cj) || (a == cj && b == ci)
+            same_faces(self.c, corner.leaving[0].faces, i, j)
         })
     }
 
@@ -1142,11 +1143,12 @@ impl<'a> Tracer<'a> {
     }
 }
 
-/// Whether two creases leaving a corner are of the same two faces.
-fn same_faces(c: &mut Creased, a: &Leaving, b: &Leaving) -> bool {
-    let (a0, a1) = (c.class(a.faces[0].0), c.class(a.faces[1].0));
-    let (b0, b1) = (c.class(b.faces[0].0), c.class(b.faces[1].0));
-    (a0 == b0 && a1 == b1) || (a0 == b1 && a1 == b0)
+/// Whether the crease between `faces` (as a corner's `Leaving` holds them) is one of the
+/// faces of forms i and j.
+pub(super) fn same_faces(c: &mut Creased, faces: [(usize, DVec3); 2], i: usize, j: usize) -> bool {
+    let (a, b) = (c.class(faces[0].0), c.class(faces[1].0));
+    let (ci, cj) = (c.class(i), c.class(j));
+    (a == ci && b == cj) || (a == cj && b == ci)
 }
 
 /// |n1 × n2| of the unit normals (0 where a gradient vanishes).

@@ -18,9 +18,9 @@ use crate::survey::faces::{self, Leaving};
 /// die there: beyond the walk's last halvings, within the shared face.
 const BEYOND: [f64; 3] = [0.02, 0.05, 0.1];
 
-/// Two forms are one sheet at a point when the other's distance is below this (in steps)
-/// and their normals are parallel to this sine (as `survey::faces::relate` asks).
-const COINCIDE: f64 = 1e-9;
+/// Two forms are one sheet at a point when the other's distance is below `coincide` steps
+/// (`FaceSettings`) and their normals are parallel to this sine (as `survey::faces::relate`
+/// asks).
 const PARALLEL: f64 = 1e-7;
 
 /// The seam is traced in steps of this fraction of the step before resampling.
@@ -93,7 +93,7 @@ impl Tracer<'_> {
                     sine: 0.0,
                 });
             };
-            let sides = self.sides(&self.traced_clone(k))?;
+            let sides = self.sides(&self.traced[k].clone())?;
             seams.push(Traced {
                 forms: (i, j),
                 points,
@@ -113,17 +113,6 @@ impl Tracer<'_> {
         }
         self.traced.extend(seams);
         Ok(())
-    }
-
-    /// A copy of traced crease k (its sides are asked while the tracer is borrowed).
-    fn traced_clone(&self, k: usize) -> Traced {
-        let tr = &self.traced[k];
-        Traced {
-            forms: tr.forms,
-            points: tr.points.clone(),
-            ends: tr.ends,
-            seam: tr.seam,
-        }
     }
 
     /// The seam from `from` to `to` on the sheet forms i and j share: form i's sheet cut by
@@ -208,7 +197,7 @@ impl Tracer<'_> {
         let (a, b) = (self.c.form(i, q), self.c.form(j, q));
         let nb = b.gradient.length();
         nb > 0.0
-            && b.value.abs() <= COINCIDE * self.step * nb
+            && b.value.abs() <= self.s.faces.coincide * self.step * nb
             && a.gradient.dot(b.gradient) > 0.0
             && sine(a.gradient, b.gradient) <= PARALLEL
     }

@@ -14,7 +14,7 @@
 
 use glam::{DMat2, DVec2, DVec3};
 
-use super::{Corner, Tracer};
+use super::{Corner, Tracer, same_faces};
 use crate::pipeline::crease_net::CreaseError;
 use crate::solve::surfacepoint::tangent_frame;
 use crate::survey::faces::{self, Crossing, Leaving};
@@ -55,14 +55,11 @@ impl Tracer<'_> {
         j: usize,
         p: DVec3,
     ) -> Result<Option<usize>, CreaseError> {
-        let (ci, cj) = (self.c.class(i), self.c.class(j));
         for (id, corner) in self.corners.iter().enumerate() {
-            if corner.tangent.is_none() || corner.at.distance(p) > REUSE * self.step {
-                continue;
-            }
-            let faces = corner.leaving[0].faces;
-            let (a, b) = (self.c.class(faces[0].0), self.c.class(faces[1].0));
-            if (a == ci && b == cj) || (a == cj && b == ci) {
+            if corner.tangent.is_some()
+                && corner.at.distance(p) <= REUSE * self.step
+                && same_faces(self.c, corner.leaving[0].faces, i, j)
+            {
                 return Ok(Some(id));
             }
         }
@@ -170,8 +167,7 @@ impl Tracer<'_> {
             let Crossing::Crease { faces } = faces::crossing(self.c, q, t, &scale, &fs)? else {
                 return Ok(None);
             };
-            let (a, b) = (self.c.class(faces[0].0), self.c.class(faces[1].0));
-            if !((a == ci && b == cj) || (a == cj && b == ci)) {
+            if !same_faces(self.c, faces, i, j) {
                 return Ok(None);
             }
             leaving.push(Leaving {
