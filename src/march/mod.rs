@@ -100,12 +100,53 @@ pub struct Marched {
     /// What the user should know about a mesh that is right (a feature cut at the floor of
     /// the local step, a chord error above the tolerance with `uniform`).
     pub warnings: Vec<String>,
+    /// The triangles left below the quality stage's angle with a corner it may not move,
+    /// also among `warnings`: a caller that moves such corners (`pipeline::crease_net`'s
+    /// slide along creases) counts them again.
+    pub held: Option<Held>,
     /// How many times the mesh was re-marched with a finer local step near failures.
     pub refinements: u32,
     /// The most triangles the marcher made in one round (before the quality stage): what
     /// `MarchInput::max_triangles` was held against. A march with a larger limit whose peak
     /// stays within a smaller one made the same mesh as with the smaller limit.
     pub peak_triangles: u64,
+}
+
+/// Triangles below the quality stage's target angle with a corner on a polygon, a crease or
+/// the box, which the stage may not move: a warning.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Held {
+    pub count: usize,
+    /// The smallest angle among them (degrees), and the centroid of its triangle.
+    pub worst: f64,
+    pub at: DVec3,
+    /// The target angle (degrees).
+    pub target: f64,
+}
+
+impl Held {
+    /// Both sets of triangles: the counts added, the worst of the two.
+    pub fn and(self, other: Held) -> Held {
+        let worst = if other.worst < self.worst {
+            other
+        } else {
+            self
+        };
+        Held {
+            count: self.count + other.count,
+            ..worst
+        }
+    }
+}
+
+impl std::fmt::Display for Held {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} triangle(s) with a corner on a polygon, a crease or the box stay below {:.1}°: the smallest angle is {:.1}° near {}",
+            self.count, self.target, self.worst, self.at
+        )
+    }
 }
 
 /// Which input polygon an error refers to.
@@ -496,16 +537,20 @@ fn verified(
                     settings.quality_angle.to_degrees()
                 ));
             }
-            if let Some((count, worst, at)) = held {
-                warnings.push(format!(
-                    "{count} triangle(s) with a corner on a polygon, a crease or the box stay below {:.1}°: the smallest angle is {worst:.1}° near {at}",
-                    settings.quality_angle.to_degrees()
-                ));
+            let held = held.map(|(count, worst, at)| Held {
+                count,
+                worst,
+                at,
+                target: settings.quality_angle.to_degrees(),
+            });
+            if let Some(held) = held {
+                warnings.push(held.to_string());
             }
             let right = Marched {
                 mesh: marched.mesh,
                 max_chord_error: verdict.max_chord_error,
                 warnings,
+                held,
                 refinements: round,
                 peak_triangles,
             };

@@ -40,7 +40,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::crease_net::merge_at;
-use crate::march::{self, MarchError, MarchInput, MarchSettings, Marched, Start};
+use crate::march::{self, Held, MarchError, MarchInput, MarchSettings, Marched, Start};
 use crate::mesh::Mesh;
 use crate::mesh::check::intersecting_pairs;
 use crate::mesh::quality;
@@ -622,6 +622,7 @@ fn march_pieces(
                 .map(|m| m.max_chord_error)
                 .fold(0.0, f64::max),
             warnings,
+            held: marched.iter().filter_map(|m| m.held).reduce(Held::and),
             refinements: marched.iter().map(|m| m.refinements).max().unwrap_or(0),
             peak_triangles: marched.iter().map(|m| m.peak_triangles).sum(),
         },

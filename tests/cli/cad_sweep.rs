@@ -617,9 +617,12 @@ pub fn quality(mesh: &Mesh) -> Quality {
     }
 }
 
+/// The sweep's seed unless `SURFC_CAD_SEED` gives another.
+pub const SEED: u64 = 0x0042_CAD0_5EED;
+
 /// The generator of part `case` of the sweep drawn from `seed`: its own stream, so that one
 /// part can be drawn alone.
-fn case_rng(seed: u64, case: usize) -> Rng {
+pub fn case_rng(seed: u64, case: usize) -> Rng {
     Rng::new(seed ^ (case as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15))
 }
 
@@ -699,7 +702,7 @@ fn kind_of(note: &str) -> String {
 #[ignore = "long run: `.ci/run` runs it with SURFC_CAD_CASES=36 (cargo test -- --include-ignored cad_sweep::)"]
 fn generated_parts_mesh_right_or_refuse_with_a_place() {
     let cases: usize = var("SURFC_CAD_CASES").unwrap_or(Class::ALL.len());
-    let seed: u64 = var("SURFC_CAD_SEED").unwrap_or(0x0042_CAD0_5EED);
+    let seed: u64 = var("SURFC_CAD_SEED").unwrap_or(SEED);
     let only: Option<usize> = var("SURFC_CAD_ONLY");
     let class: Option<Class> = std::env::var("SURFC_CAD_CLASS")
         .ok()

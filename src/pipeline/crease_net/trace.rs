@@ -17,6 +17,7 @@ use crate::survey::sizing::Sizing;
 use crate::survey::spine::{Creased, Spine};
 
 mod dying;
+pub(super) use dying::seam_point;
 mod tangent;
 
 /// A traced crease: the forms it was traced on (i, j), its points along ∇Lᵢ × ∇Lⱼ, and the
@@ -981,8 +982,8 @@ impl<'a> Tracer<'a> {
     /// The crease's polygon: vertices spaced by the local step of both pieces along it,
     /// graded as the marcher grades (neighbouring edges differ little, so the triangles on
     /// either side stay near-equilateral where the step changes: a fillet's fine spacing does
-    /// not run on along the straight edges it joins), at least the marcher's shortest
-    /// polygon edge; the ends kept exactly.
+    /// not run on along the straight edges it joins), at least `min_edge` (the pieces'
+    /// shortest polygon edge); the ends kept exactly.
     pub fn resample(
         &mut self,
         tr: &Traced,
@@ -1055,9 +1056,8 @@ impl<'a> Tracer<'a> {
         }
         let whole = count[count.len() - 1];
         let n = (whole.ceil() as usize).max(if closed { 3 } else { 1 });
-        // A crease shorter than the marcher's shortest polygon edge between two corners is
-        // one edge (the pieces march with that limit lowered to `shortest`); shorter still,
-        // the corners nearly coincide and the crease is refused.
+        // The local step's floor keeps the edges at `min_edge` or longer; a crease between
+        // two corners shorter than that is refused (the corners nearly coincide).
         if total / (n as f64) < min_edge.min(self.s.shortest * self.step) {
             return Err(CreaseError::Short {
                 at: fine[0],

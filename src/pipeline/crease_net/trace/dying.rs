@@ -8,6 +8,7 @@
 //! loop is the crease and the seam, and each face is marched up to the seam. A seam that
 //! leaves the shared sheet, or a dying end without a partner, is refused where it dies.
 
+use crate::survey::spine::Creased;
 use glam::{DMat3, DVec3};
 
 use super::{Corner, Seam, Traced, Tracer, sine};
@@ -162,34 +163,15 @@ impl Tracer<'_> {
     }
 
     /// The point of form i's sheet in `plane` near y, in the plane through y normal to m
-    /// (Newton on the three), or None.
+    /// (`seam_point`), or None.
     pub(in crate::pipeline::crease_net) fn on_seam(
         &mut self,
         i: usize,
-        (origin, normal): (DVec3, DVec3),
+        plane: (DVec3, DVec3),
         y: DVec3,
         m: DVec3,
     ) -> Option<DVec3> {
-        let mut q = y;
-        for _ in 0..32 {
-            let a = self.c.form(i, q);
-            let rows = DMat3::from_cols(a.gradient, normal, m).transpose();
-            let det = rows.determinant();
-            if det.is_nan() || det.abs() <= 1e-12 * a.gradient.length() * m.length() {
-                return None;
-            }
-            let rhs = DVec3::new(a.value, normal.dot(q - origin), m.dot(q - y));
-            let delta = rows.inverse() * rhs;
-            if !delta.is_finite() {
-                return None;
-            }
-            q -= delta;
-            if delta.length() <= (1e-13 * self.step).max(4.0 * f64::EPSILON * q.abs().max_element())
-            {
-                return Some(q);
-            }
-        }
-        None
+        seam_point(self.c, i, plane, y, m, self.step)
     }
 
     /// Forms i and j are one sheet at q (on form i's).
@@ -201,4 +183,35 @@ impl Tracer<'_> {
             && a.gradient.dot(b.gradient) > 0.0
             && sine(a.gradient, b.gradient) <= PARALLEL
     }
+}
+
+/// The point of form i's sheet in `plane` (origin, normal) near y, in the plane through y
+/// normal to m (Newton on the three, to 1e-13·step), or None.
+pub(in crate::pipeline::crease_net) fn seam_point(
+    c: &mut Creased,
+    i: usize,
+    (origin, normal): (DVec3, DVec3),
+    y: DVec3,
+    m: DVec3,
+    step: f64,
+) -> Option<DVec3> {
+    let mut q = y;
+    for _ in 0..32 {
+        let a = c.form(i, q);
+        let rows = DMat3::from_cols(a.gradient, normal, m).transpose();
+        let det = rows.determinant();
+        if det.is_nan() || det.abs() <= 1e-12 * a.gradient.length() * m.length() {
+            return None;
+        }
+        let rhs = DVec3::new(a.value, normal.dot(q - origin), m.dot(q - y));
+        let delta = rows.inverse() * rhs;
+        if !delta.is_finite() {
+            return None;
+        }
+        q -= delta;
+        if delta.length() <= (1e-13 * step).max(4.0 * f64::EPSILON * q.abs().max_element()) {
+            return Some(q);
+        }
+    }
+    None
 }

@@ -1,0 +1,537 @@
+//! Crease vertices slid along their creases once the pieces are joined (docs/creases.md,
+//! *Sliding along creases*). Each piece is marched and improved up to crease polygons it may
+//! not move, as the other piece on the crease shares them bit for bit: a triangle with two
+//! crease vertices keeps the shape their spacing and the other piece's rows leave it (29°
+//! where a hole's rim meets a plate's rows, 0.93 of radius ratio along a rim at coarse
+//! steps). Here, with both pieces' triangles around it, each vertex inside a crease polygon
+//! or a seam (not a corner) may move along it: to raise the smallest angle of its star
+//! where that is below `KEEP_ANGLE`, else the sum of the star's radius ratios, never
+//! lowering its smallest angle below `KEEP_ANGLE`. After each round over them, the free
+//! vertices within two rings of them (whose places the pieces chose for the crease vertices
+//! as they were) move towards their ring's centroid by the same rules (`smooth_near`).
+//!
+//! A move is kept only when the new place is on both forms (Newton within the plane normal
+//! to the crease, `survey::faces::correct`), or on the seam's form and plane
+//! (`trace::seam_point`), and on the surface (f is zero there: no third form is chosen),
+//! stays between its polygon neighbours with its polygon edges no longer than the step (or
+//! than they were: a crease keeps a vertex a step at least), every triangle of its star still
+//! faces the side its corners' normals point to and turns from the nearest piece normal no
+//! further than it did (or 45°), and the star's centroids and the midpoints of its moved
+//! edges are within the chord tolerance. The joined mesh is then checked as before
+//! (`join::check_joined`, crossings included) by the caller, which keeps the mesh as
+//! marched where the slid one fails. Vertices are visited in polygon order, in rounds:
+//! the same mesh for any thread count.
+
+use std::collections::{HashMap, HashSet};
+
+use glam::DVec3;
+
+use super::trace::{Traced, seam_point};
+use crate::march::Held;
+use crate::mesh::Mesh;
+use crate::survey::faces;
+use crate::survey::spine::Creased;
+
+/// Rounds over every crease vertex.
+const ROUNDS: usize = 3;
+/// The places tried along the crease, as fractions of the shorter polygon edge at the vertex.
+const TRIES: [f64; 6] = [-0.3, -0.15, -0.05, 0.05, 0.15, 0.3];
+/// Below this smallest angle a move aims at the angle; above it, at the radius ratios
+/// (`march::improve`'s `KEEP_ANGLE`).
+const KEEP_ANGLE: f64 = 34.0 * std::f64::consts::PI / 180.0;
+/// The gain in the star's sum of radius ratios that a move for the ratios must make.
+const RATIO_GAIN: f64 = 2e-4;
+/// The gain in the sine of the star's smallest angle that a move for the angle must make.
+const SINE_GAIN: f64 = 1e-4;
+/// A triangle may turn from its nearest piece normal up to this cosine (45°) after a move,
+/// or as far as it did before.
+const TURN_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// What the slide needs of the mesh's setting.
+pub(super) struct Limits {
+    /// The chord tolerance (model units).
+    pub tolerance: f64,
+    /// |f|/|∇f| below this is on the surface (model units).
+    pub on_surface: f64,
+    /// The step: Newton's convergence is relative to it.
+    pub step: f64,
+    /// The mesh's box: border vertices on its faces do not move.
+    pub bbox: (DVec3, DVec3),
+}
+
+/// Slides the crease vertices of `mesh` (the joined pieces) along their creases, and the
+/// points of `polygons` (one per crease of `traced`) with them. Returns how many moves
+/// were made.
+pub(super) fn slide(
+    c: &mut Creased,
+    mesh: &mut Mesh,
+    polygons: &mut [Vec<DVec3>],
+    traced: &[Traced],
+    limits: &Limits,
+) -> usize {
+    let bits = |p: DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+    let index: HashMap<[u64; 3], u32> = mesh
+        .vertices
+        .iter()
+        .enumerate()
+        .map(|(k, &p)| (bits(p), k as u32))
+        .collect();
+    // Each crease vertex with its polygon, its place there and its two forms.
+    let mut movable: Vec<(usize, usize, u32)> = Vec::new();
+    let mut uses = vec![0u32; mesh.vertices.len()];
+    for (k, (poly, tr)) in polygons.iter().zip(traced).enumerate() {
+        for p in poly {
+            if let Some(&v) = index.get(&bits(*p)) {
+                uses[v as usize] += 1;
+            }
+        }
+        if poly.len() < 3 {
+            continue;
+        }
+        let closed = tr.ends.is_none();
+        let inner = if closed {
+            0..looped(poly)
+        } else {
+            1..poly.len() - 1
+        };
+        for at in inner {
+            if let Some(&v) = index.get(&bits(poly[at])) {
+                movable.push((k, at, v));
+            }
+        }
+    }
+    // A vertex on two polygons (a corner, a loop's repeated first point) does not move.
+    movable.retain(|&(k, at, v)| {
+        let closed_repeat = traced[k].ends.is_none() && at == 0 && uses[v as usize] == 2;
+        uses[v as usize] == 1 || closed_repeat
+    });
+    let star = stars(mesh);
+    let crease_vertices: Vec<u32> = movable.iter().map(|&(_, _, v)| v).collect();
+    let near = near_creases(mesh, &star, &crease_vertices, &uses, limits);
+    let sides_of = |mesh: &Mesh, v: u32| {
+        let lo = mesh.sides.partition_point(|s| s.vertex < v);
+        let hi = mesh.sides.partition_point(|s| s.vertex <= v);
+        lo..hi
+    };
+    let mut moves = 0;
+    for _ in 0..ROUNDS {
+        let mut moved = 0;
+        for &(k, at, v) in &movable {
+            let poly = &polygons[k];
+            let n = looped(poly);
+            let closed = traced[k].ends.is_none();
+            let (before, after) = if closed {
+                (poly[(at + n - 1) % n], poly[(at + 1) % n])
+            } else {
+                (poly[at - 1], poly[at + 1])
+            };
+            let p = mesh.vertices[v as usize];
+            let Some(tangent) = (after - before).try_normalize() else {
+                continue;
+            };
+            let reach = p.distance(before).min(p.distance(after));
+            let longer = p.distance(before).max(p.distance(after));
+            let sides = sides_of(mesh, v);
+            let old_sides: Vec<DVec3> =
+                mesh.sides[sides.clone()].iter().map(|s| s.normal).collect();
+            let old_normal = mesh.normals[v as usize];
+            let tris = &star[v as usize];
+            let now = score(mesh, tris, v, p, old_normal, &old_sides);
+            let mut best: Option<(DVec3, Normals, Score)> = None;
+            for t in TRIES {
+                let guess = p + t * reach * tangent;
+                let (i, j) = traced[k].forms;
+                let q = match traced[k].seam {
+                    None => faces::correct(c, i, j, guess, guess, tangent, limits.step),
+                    Some(seam) => seam_point(c, i, seam.plane, guess, tangent, limits.step),
+                };
+                let Some(q) = q else {
+                    continue;
+                };
+                // Between its polygon neighbours, by a tenth of the shorter edge at least, and
+                // its polygon edges no longer than the step (or than they were): the polygon
+                // keeps a vertex a step at least.
+                let margin = 0.1 * reach;
+                if (q - before).dot(tangent) < margin
+                    || (after - q).dot(tangent) < margin
+                    || q.distance(before).max(q.distance(after)) > longer.max(limits.step)
+                {
+                    continue;
+                }
+                let f = c.whole(q);
+                if !(f.value.abs() <= limits.on_surface * f.gradient.length()) {
+                    continue;
+                }
+                let Some(normals) = normals_at(c, &traced[k], q, old_normal, &old_sides) else {
+                    continue;
+                };
+                let s = score(mesh, tris, v, q, normals.normal, &normals.sides);
+                if !s.valid(&now) || !better(&now, &s, best.as_ref().map(|b| &b.2)) {
+                    continue;
+                }
+                if !within_chord(c, mesh, tris, v, q, limits.tolerance) {
+                    continue;
+                }
+                best = Some((q, normals, s));
+            }
+            let Some((q, normals, _)) = best else {
+                continue;
+            };
+            mesh.vertices[v as usize] = q;
+            for (side, n) in mesh.sides[sides].iter_mut().zip(normals.sides) {
+                side.normal = n;
+            }
+            mesh.normals[v as usize] = normals.normal;
+            let poly = &mut polygons[k];
+            poly[at] = q;
+            if closed && at == 0 && poly.len() > n {
+                let last = poly.len() - 1;
+                poly[last] = q;
+            }
+            moved += 1;
+        }
+        moved += smooth_near(c, mesh, &near, &star, limits);
+        moves += moved;
+        if moved == 0 {
+            break;
+        }
+    }
+    moves
+}
+
+/// The free vertices within two rings of the movable crease vertices `movable`: not on a
+/// polygon, without sides, not on the box.
+fn near_creases(
+    mesh: &Mesh,
+    star: &[Vec<u32>],
+    movable: &[u32],
+    uses: &[u32],
+    limits: &Limits,
+) -> Vec<u32> {
+    let (lo, hi) = limits.bbox;
+    let free = |v: u32| {
+        let p = mesh.vertices[v as usize];
+        uses[v as usize] == 0 && !(0..3).any(|k| p[k] == lo[k] || p[k] == hi[k])
+    };
+    let ring = |v: u32| {
+        star[v as usize]
+            .iter()
+            .flat_map(|&t| mesh.triangles[t as usize])
+            .filter(move |&w| w != v)
+    };
+    let mut seen = vec![false; mesh.vertices.len()];
+    let mut out = Vec::new();
+    let mut front: Vec<u32> = movable.to_vec();
+    for _ in 0..2 {
+        let mut next = Vec::new();
+        for &v in &front {
+            for w in ring(v) {
+                if !seen[w as usize] && free(w) {
+                    seen[w as usize] = true;
+                    out.push(w);
+                    next.push(w);
+                }
+            }
+        }
+        front = next;
+    }
+    let sided: HashSet<u32> = mesh.sides.iter().map(|s| s.vertex).collect();
+    out.retain(|v| !sided.contains(v));
+    out.sort_unstable();
+    out
+}
+
+/// One round of smoothing of the free vertices `near` the creases on the joined mesh: each
+/// towards the centroid of its ring, put onto the surface by Newton on f (it stays on its
+/// own face: crossing a crease polygon would turn a triangle over), kept by the rules of
+/// the slide (`Score::valid`, `better`, `within_chord`). Returns the moves.
+fn smooth_near(
+    c: &mut Creased,
+    mesh: &mut Mesh,
+    near: &[u32],
+    star: &[Vec<u32>],
+    limits: &Limits,
+) -> usize {
+    let mut moved = 0;
+    for &v in near {
+        let tris = &star[v as usize];
+        let p = mesh.vertices[v as usize];
+        let ring: Vec<DVec3> = tris
+            .iter()
+            .flat_map(|&t| mesh.triangles[t as usize])
+            .filter(|&w| w != v)
+            .map(|w| mesh.vertices[w as usize])
+            .collect();
+        if ring.is_empty() {
+            continue;
+        }
+        // Each ring vertex appears in two triangles of a closed fan: the mean is the ring's.
+        let centroid = ring.iter().sum::<DVec3>() / ring.len() as f64;
+        let old_normal = mesh.normals[v as usize];
+        let now = score(mesh, tris, v, p, old_normal, &[]);
+        let mut best: Option<(DVec3, DVec3, Score)> = None;
+        for share in [1.0, 0.5] {
+            let Some((q, normal)) = onto_surface(c, p + share * (centroid - p), limits) else {
+                continue;
+            };
+            if !(q.cmpge(limits.bbox.0).all() && q.cmple(limits.bbox.1).all())
+                || normal.dot(old_normal) < 0.5
+            {
+                continue;
+            }
+            let s = score(mesh, tris, v, q, normal, &[]);
+            if !s.valid(&now) || !better(&now, &s, best.as_ref().map(|b| &b.2)) {
+                continue;
+            }
+            if !within_chord(c, mesh, tris, v, q, limits.tolerance) {
+                continue;
+            }
+            best = Some((q, normal, s));
+        }
+        if let Some((q, normal, _)) = best {
+            mesh.vertices[v as usize] = q;
+            mesh.normals[v as usize] = normal;
+            moved += 1;
+        }
+    }
+    moved
+}
+
+/// The point of the surface f = 0 near p by Newton along ∇f, converged as the tracer's
+/// Newton is (a step below 1e-13·step or rounding), with its unit normal, or None.
+fn onto_surface(c: &mut Creased, mut p: DVec3, limits: &Limits) -> Option<(DVec3, DVec3)> {
+    for _ in 0..32 {
+        let f = c.whole(p);
+        let g2 = f.gradient.length_squared();
+        if !(g2 > 0.0 && f.value.is_finite()) {
+            return None;
+        }
+        let delta = f.gradient * (f.value / g2);
+        p -= delta;
+        if delta.length() <= (1e-13 * limits.step).max(4.0 * f64::EPSILON * p.abs().max_element()) {
+            let f = c.whole(p);
+            let g = f.gradient.length();
+            return (f.value.abs() <= limits.on_surface * g).then(|| (p, f.gradient / g));
+        }
+    }
+    None
+}
+
+/// The points of a polygon before a closed loop's repeated first point.
+fn looped(poly: &[DVec3]) -> usize {
+    if poly.len() > 1 && poly[0] == poly[poly.len() - 1] {
+        poly.len() - 1
+    } else {
+        poly.len()
+    }
+}
+
+/// The triangles around each vertex.
+fn stars(mesh: &Mesh) -> Vec<Vec<u32>> {
+    let mut star = vec![Vec::new(); mesh.vertices.len()];
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for &v in tri {
+            star[v as usize].push(t as u32);
+        }
+    }
+    star
+}
+
+/// A vertex's normal and its pieces' normals (`Mesh::sides`) at a new place.
+struct Normals {
+    normal: DVec3,
+    sides: Vec<DVec3>,
+}
+
+/// The normals at q of a vertex of crease or seam `tr` whose normal and sides were `normal`
+/// and `sides`: on a crease, the two forms' unit gradients, each as the side it is nearest
+/// to, and their normalised sum; on a seam (one sheet), the first form's unit gradient for
+/// all. None where they turned by 60° or more from what they were.
+fn normals_at(
+    c: &mut Creased,
+    tr: &Traced,
+    q: DVec3,
+    normal: DVec3,
+    sides: &[DVec3],
+) -> Option<Normals> {
+    let (i, j) = tr.forms;
+    let ni = c.form(i, q).gradient.try_normalize()?;
+    let out = if tr.seam.is_some() {
+        Normals {
+            normal: ni,
+            sides: vec![ni; sides.len()],
+        }
+    } else {
+        let nj = c.form(j, q).gradient.try_normalize()?;
+        let [a, b] = sides else {
+            return None;
+        };
+        let pair = if a.dot(ni) + b.dot(nj) >= a.dot(nj) + b.dot(ni) {
+            vec![ni, nj]
+        } else {
+            vec![nj, ni]
+        };
+        Normals {
+            normal: (ni + nj).normalize_or_zero(),
+            sides: pair,
+        }
+    };
+    let kept =
+        out.normal.dot(normal) > 0.5 && out.sides.iter().zip(sides).all(|(n, s)| n.dot(*s) > 0.5);
+    kept.then_some(out)
+}
+
+/// A star's measures with its centre at one place.
+struct Score {
+    /// Sine of the smallest angle of the star's triangles.
+    min_sine: f64,
+    /// Sum of their radius ratios.
+    ratios: f64,
+    /// Per triangle: the cosine between its normal and the nearest of the centre's normal
+    /// and piece normals; NaN where a triangle is degenerate or faces against its corners'
+    /// normals.
+    turns: Vec<f64>,
+}
+
+impl Score {
+    /// Every triangle faces its corners' normals and turns no further from the nearest
+    /// normal at the centre than it did or than `TURN_COS`.
+    fn valid(&self, before: &Score) -> bool {
+        self.turns
+            .iter()
+            .zip(&before.turns)
+            .all(|(&now, &then)| now >= then.min(TURN_COS))
+    }
+}
+
+/// Whether `s` is better than `now` by the rule of the module documentation, and better
+/// than the best so far.
+fn better(now: &Score, s: &Score, best: Option<&Score>) -> bool {
+    let keep = KEEP_ANGLE.sin();
+    let gains = if now.min_sine < keep {
+        s.min_sine > now.min_sine + SINE_GAIN
+    } else {
+        s.min_sine >= keep && s.ratios > now.ratios + RATIO_GAIN
+    };
+    gains
+        && best.is_none_or(|b| {
+            if now.min_sine < keep {
+                s.min_sine > b.min_sine
+            } else {
+                s.ratios > b.ratios
+            }
+        })
+}
+
+/// The star of v (triangles `tris`) with v at q, its normal `normal` and piece normals
+/// `sides` there (none for a free vertex, or a seam vertex without sides).
+fn score(mesh: &Mesh, tris: &[u32], v: u32, q: DVec3, normal: DVec3, sides: &[DVec3]) -> Score {
+    let mut out = Score {
+        min_sine: f64::INFINITY,
+        ratios: 0.0,
+        turns: Vec::with_capacity(tris.len()),
+    };
+    for &t in tris {
+        let tri = mesh.triangles[t as usize];
+        let at = |k: u32| if k == v { q } else { mesh.vertices[k as usize] };
+        let [a, b, c] = tri.map(at);
+        let n = (b - a).cross(c - a);
+        let corners: DVec3 = tri
+            .iter()
+            .map(|&k| {
+                if k == v {
+                    normal
+                } else {
+                    mesh.normals[k as usize]
+                }
+            })
+            .sum();
+        let turn = match n.try_normalize() {
+            Some(u) if n.dot(corners) > 0.0 => sides
+                .iter()
+                .map(|s| u.dot(*s))
+                .fold(u.dot(normal), f64::max),
+            _ => f64::NAN,
+        };
+        out.turns.push(turn);
+        let (x, y, z) = (a.distance(b), b.distance(c), c.distance(a));
+        let area2 = n.length();
+        out.min_sine = out.min_sine.min(min_sine(a, b, c));
+        let s = 0.5 * (x + y + z);
+        let product = s * x * y * z;
+        out.ratios += if product > 0.0 {
+            2.0 * area2 * area2 / product
+        } else {
+            0.0
+        };
+    }
+    out
+}
+
+/// The centroids of the star's triangles and the midpoints of its edges at v, with v at q,
+/// are within `tolerance` of the surface by the linear estimate |f|/|∇f|.
+fn within_chord(
+    c: &mut Creased,
+    mesh: &Mesh,
+    tris: &[u32],
+    v: u32,
+    q: DVec3,
+    tolerance: f64,
+) -> bool {
+    let near = |c: &mut Creased, p: DVec3| {
+        let f = c.whole(p);
+        let g = f.gradient.length();
+        g > 0.0 && f.value.abs() <= tolerance * g
+    };
+    tris.iter().all(|&t| {
+        let tri = mesh.triangles[t as usize];
+        let at = |k: u32| if k == v { q } else { mesh.vertices[k as usize] };
+        let [a, b, d] = tri.map(at);
+        near(c, (a + b + d) / 3.0)
+            && tri
+                .iter()
+                .filter(|&&k| k != v)
+                .all(|&k| near(c, 0.5 * (q + mesh.vertices[k as usize])))
+    })
+}
+
+/// The triangles of the pieces (the first `pieces` of `mesh`) below `target` (radians) with a
+/// corner on a crease polygon or on the box: what the pieces' own warnings said before the
+/// slide, counted again after it.
+pub(super) fn held(
+    mesh: &Mesh,
+    pieces: usize,
+    polygons: &[Vec<DVec3>],
+    (lo, hi): (DVec3, DVec3),
+    target: f64,
+) -> Option<Held> {
+    let bits = |p: DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+    let on_crease: HashSet<[u64; 3]> = polygons.iter().flatten().map(|&p| bits(p)).collect();
+    let fixed =
+        |p: DVec3| on_crease.contains(&bits(p)) || (0..3).any(|k| p[k] == lo[k] || p[k] == hi[k]);
+    let sin_target = target.sin();
+    let mut out: Option<Held> = None;
+    for tri in &mesh.triangles[..pieces.min(mesh.triangles.len())] {
+        let [a, b, c] = tri.map(|k| mesh.vertices[k as usize]);
+        let sine = min_sine(a, b, c);
+        if sine >= sin_target || ![a, b, c].into_iter().any(fixed) {
+            continue;
+        }
+        let one = Held {
+            count: 1,
+            worst: sine.clamp(0.0, 1.0).asin().to_degrees(),
+            at: (a + b + c) / 3.0,
+            target: target.to_degrees(),
+        };
+        out = Some(out.map_or(one, |h| h.and(one)));
+    }
+    out
+}
+
+/// Sine of the smallest angle of triangle (a, b, c), 0 where it is degenerate.
+fn min_sine(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (x, y, z) = (a.distance(b), b.distance(c), c.distance(a));
+    let longer = x * y * z / x.min(y).min(z);
+    let area2 = (b - a).cross(c - a).length();
+    if longer > 0.0 { area2 / longer } else { 0.0 }
+}
