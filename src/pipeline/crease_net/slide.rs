@@ -158,8 +158,10 @@ pub(super) fn slide(
                 {
                     continue;
                 }
+                // NaN is not on the surface.
                 let f = c.whole(q);
-                if !(f.value.abs() <= limits.on_surface * f.gradient.length()) {
+                let on_surface = f.value.abs() <= limits.on_surface * f.gradient.length();
+                if !on_surface {
                     continue;
                 }
                 let Some(normals) = normals_at(c, &traced[k], q, old_normal, &old_sides) else {
