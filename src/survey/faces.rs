@@ -427,16 +427,35 @@ pub fn correct(
     m: DVec3,
     step: f64,
 ) -> Option<DVec3> {
-    let mut p = p0;
-    for _ in 0..32 {
+    solve3(p0, step, |p| {
         let (a, b) = c.seam(i, j, p);
-        let rows = DMat3::from_cols(a.gradient, b.gradient, m).transpose();
+        let scale = a.gradient.length() * b.gradient.length() * m.length();
+        (
+            [a.gradient, b.gradient, m],
+            DVec3::new(a.value, b.value, m.dot(p - o)),
+            scale,
+        )
+    })
+}
+
+/// Newton on three equations from `start`: `system(p)` gives their gradients (the rows of
+/// the Jacobian), their values and the scale of its determinant; None where the determinant
+/// is below 1e-12 of that scale, or a step is not finite, or 32 steps do not bring one below
+/// 1e-13·step (or rounding).
+pub fn solve3(
+    start: DVec3,
+    step: f64,
+    mut system: impl FnMut(DVec3) -> ([DVec3; 3], DVec3, f64),
+) -> Option<DVec3> {
+    let mut p = start;
+    for _ in 0..32 {
+        let ([r0, r1, r2], values, scale) = system(p);
+        let rows = DMat3::from_cols(r0, r1, r2).transpose();
         let det = rows.determinant();
-        let size = a.gradient.length() * b.gradient.length() * m.length();
-        if det.is_nan() || det.abs() <= 1e-12 * size {
+        if det.is_nan() || det.abs() <= 1e-12 * scale {
             return None;
         }
-        let delta = rows.inverse() * DVec3::new(a.value, b.value, m.dot(p - o));
+        let delta = rows.inverse() * values;
         if !delta.is_finite() {
             return None;
         }

@@ -9,7 +9,7 @@
 //! leaves the shared sheet, or a dying end without a partner, is refused where it dies.
 
 use crate::survey::spine::Creased;
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 
 use super::{Corner, Seam, Traced, Tracer, sine};
 use crate::pipeline::crease_net::CreaseError;
@@ -186,7 +186,7 @@ impl Tracer<'_> {
 }
 
 /// The point of form i's sheet in `plane` (origin, normal) near y, in the plane through y
-/// normal to m (Newton on the three, to 1e-13·step), or None.
+/// normal to m (`faces::solve3` on the three), or None.
 pub(in crate::pipeline::crease_net) fn seam_point(
     c: &mut Creased,
     i: usize,
@@ -195,23 +195,13 @@ pub(in crate::pipeline::crease_net) fn seam_point(
     m: DVec3,
     step: f64,
 ) -> Option<DVec3> {
-    let mut q = y;
-    for _ in 0..32 {
+    faces::solve3(y, step, |q| {
         let a = c.form(i, q);
-        let rows = DMat3::from_cols(a.gradient, normal, m).transpose();
-        let det = rows.determinant();
-        if det.is_nan() || det.abs() <= 1e-12 * a.gradient.length() * m.length() {
-            return None;
-        }
-        let rhs = DVec3::new(a.value, normal.dot(q - origin), m.dot(q - y));
-        let delta = rows.inverse() * rhs;
-        if !delta.is_finite() {
-            return None;
-        }
-        q -= delta;
-        if delta.length() <= (1e-13 * step).max(4.0 * f64::EPSILON * q.abs().max_element()) {
-            return Some(q);
-        }
-    }
-    None
+        let scale = a.gradient.length() * m.length();
+        (
+            [a.gradient, normal, m],
+            DVec3::new(a.value, normal.dot(q - origin), m.dot(q - y)),
+            scale,
+        )
+    })
 }
