@@ -191,7 +191,8 @@ fn sides(met: HashMap<u32, Vec<DVec3>>) -> Vec<crate::mesh::Side> {
     sides
 }
 
-fn bits(p: DVec3) -> [u64; 3] {
+/// A position's bits: the key of a vertex shared bit for bit.
+pub(super) fn bits(p: DVec3) -> [u64; 3] {
     [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
 }
 

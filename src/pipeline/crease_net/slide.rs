@@ -26,9 +26,11 @@ use std::collections::{HashMap, HashSet};
 
 use glam::DVec3;
 
+use super::join::bits;
 use super::trace::{Traced, seam_point};
 use crate::march::Held;
 use crate::mesh::Mesh;
+use crate::mesh::quality::radius_ratio;
 use crate::survey::faces;
 use crate::survey::spine::Creased;
 
@@ -69,7 +71,6 @@ pub(super) fn slide(
     traced: &[Traced],
     limits: &Limits,
 ) -> usize {
-    let bits = |p: DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
     let index: HashMap<[u64; 3], u32> = mesh
         .vertices
         .iter()
@@ -456,16 +457,8 @@ fn score(mesh: &Mesh, tris: &[u32], v: u32, q: DVec3, normal: DVec3, sides: &[DV
             _ => f64::NAN,
         };
         out.turns.push(turn);
-        let (x, y, z) = (a.distance(b), b.distance(c), c.distance(a));
-        let area2 = n.length();
         out.min_sine = out.min_sine.min(min_sine(a, b, c));
-        let s = 0.5 * (x + y + z);
-        let product = s * x * y * z;
-        out.ratios += if product > 0.0 {
-            2.0 * area2 * area2 / product
-        } else {
-            0.0
-        };
+        out.ratios += radius_ratio(a, b, c);
     }
     out
 }
@@ -507,7 +500,6 @@ pub(super) fn held(
     (lo, hi): (DVec3, DVec3),
     target: f64,
 ) -> Option<Held> {
-    let bits = |p: DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
     let on_crease: HashSet<[u64; 3]> = polygons.iter().flatten().map(|&p| bits(p)).collect();
     let fixed =
         |p: DVec3| on_crease.contains(&bits(p)) || (0..3).any(|k| p[k] == lo[k] || p[k] == hi[k]);
