@@ -474,6 +474,24 @@ impl<'a> ArcLength<'a> {
         self.resample_at((1..n).map(|k| total * k as f64 / n as f64), correct)
     }
 
+    /// The arc length of the polyline's point nearest q.
+    pub fn nearest(&self, q: DVec3) -> f64 {
+        let (fine, m) = (self.fine, self.fine.len());
+        let mut best = (f64::INFINITY, 0.0);
+        for i in 0..self.cumulative.len() - 1 {
+            let (a, b) = (fine[i], fine[(i + 1) % m]);
+            let w = nearest_on_segment(q, a, b);
+            let d = q.distance_squared(a.lerp(b, w));
+            if d < best.0 {
+                best = (
+                    d,
+                    self.cumulative[i] + w * (self.cumulative[i + 1] - self.cumulative[i]),
+                );
+            }
+        }
+        best.1
+    }
+
     /// The arc length from the first vertex to fine vertex i.
     pub fn at(&self, i: usize) -> f64 {
         self.cumulative[i.min(self.cumulative.len() - 1)]
@@ -510,6 +528,18 @@ impl<'a> ArcLength<'a> {
             out.push(fine[m - 1]);
         }
         Ok(out)
+    }
+}
+
+/// Where on the segment a..b the point nearest q lies, as a fraction of the way from a (0
+/// for a degenerate segment).
+pub fn nearest_on_segment(q: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let l2 = ab.length_squared();
+    if l2 > 0.0 {
+        ((q - a).dot(ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
     }
 }
 

@@ -340,6 +340,103 @@ fn warnings_of_held_triangles_tell_the_slid_mesh() {
     }
 }
 
+/// Creases across a narrow face are resampled in phase (docs/creases.md, *In phase across
+/// narrow faces*): the two rims of a hole through a plate thinner than the step, traced each
+/// from wherever its seed lay, carry the same number of vertices, turned from one rim to the
+/// other by a whole or a half spacing (opposite each other for an even number of rows on the
+/// wall, staggered by half an edge for an odd number) to a tenth of one at three vertices in
+/// four at least (the slide along creases moves some afterwards), and the wall marched
+/// between them in whole rows has a mean radius ratio of 0.97 or more. The hole is
+/// off the plate's centre, and the plate is meshed at 2½ and 3 times its thickness.
+#[test]
+fn rims_of_a_hole_through_a_thin_plate_are_in_phase() {
+    let dir = common::cli::scratch("cad-phase");
+    let (centre, r, thickness) = (DVec3::new(0.13, -0.07, 0.0), 0.3, 0.16);
+    let plate = part(
+        "a plate with a hole",
+        Solid::Difference(vec![
+            block([-1.0, -0.8, 0.0], [1.0, 0.8, thickness]),
+            Solid::Translate(
+                Box::new(Solid::Cylinder { r, h: 0.5 }),
+                centre + DVec3::new(0.0, 0.0, 0.5 * thickness),
+            ),
+        ]),
+        thickness,
+        0,
+    );
+    for multiple in [2.5, 3.0] {
+        let step = multiple * thickness;
+        let judged = mesh(&plate, step, &dir);
+        assert!(
+            matches!(judged.outcome, Outcome::Right),
+            "at {multiple}×: {:?}",
+            judged.outcome
+        );
+        let m = judged.mesh.as_ref().expect("a mesh");
+        let on_wall = |p: DVec3| ((p - centre).truncate().length() - r).abs() <= 1e-9;
+        let rim = |z: f64| {
+            let mut angles: Vec<f64> = m
+                .vertices
+                .iter()
+                .filter(|p| on_wall(**p) && (p.z - z).abs() <= 1e-12)
+                .map(|p| (p.y - centre.y).atan2(p.x - centre.x))
+                .collect();
+            angles.sort_by(f64::total_cmp);
+            angles
+        };
+        let (bottom, top) = (rim(0.0), rim(thickness));
+        let n = bottom.len();
+        assert!(
+            n >= 8 && top.len() == n,
+            "rims of {n} and {} vertices",
+            top.len()
+        );
+        // The turn from each bottom vertex to the top vertex after it, in spacings.
+        let spacing = std::f64::consts::TAU / n as f64;
+        let turns: Vec<f64> = bottom
+            .iter()
+            .map(|&b| {
+                let next = top
+                    .iter()
+                    .map(|&t| (t - b).rem_euclid(std::f64::consts::TAU))
+                    .fold(f64::INFINITY, f64::min);
+                next / spacing
+            })
+            .collect();
+        // Apart by whole spacings, circularly (a turn of 0.9999 is one of 0).
+        let apart = |a: f64, b: f64| {
+            let d = (a - b).rem_euclid(1.0);
+            d.min(1.0 - d)
+        };
+        // The slide along creases (after the resampling) moves some rim vertices a little
+        // for their angles, by a few hundredths of a spacing: three in four stay within a
+        // tenth of one of where the phase put them.
+        let in_phase = [0.0, 0.5]
+            .map(|p| turns.iter().filter(|&&t| apart(t, p) <= 0.1).count())
+            .into_iter()
+            .max()
+            .unwrap_or(0);
+        assert!(
+            4 * in_phase >= 3 * n,
+            "at {multiple}×: {in_phase} of {n} in phase; turns from the bottom rim to the top \
+             one {turns:?} (spacings)"
+        );
+        let wall: Vec<f64> = m
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| m.vertices[v as usize]))
+            .filter(|t| t.iter().all(|p| on_wall(*p)))
+            .map(|[a, b, c]| surfc::mesh::quality::radius_ratio(a, b, c))
+            .collect();
+        let mean = wall.iter().sum::<f64>() / wall.len() as f64;
+        assert!(
+            mean >= 0.97,
+            "at {multiple}×: the wall's {} triangles have a mean radius ratio of {mean:.4}",
+            wall.len()
+        );
+    }
+}
+
 /// The judge tells wrong meshes from right ones: two balls (which surfc meshes right) judged
 /// right, then the same mesh with a triangle removed, turned inside out, with a ball left out,
 /// and against a solid a little larger: each wrong.

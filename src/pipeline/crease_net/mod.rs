@@ -37,6 +37,7 @@
 //! a mesh. Deterministic: cells, pairs and creases follow fixed orders.
 
 mod join;
+mod pair;
 mod slide;
 mod trace;
 mod width;
@@ -323,20 +324,38 @@ fn mesh_creased_once(
     // Faces up to a few steps wide beside a crease: their width, in whole rows of
     // triangles, caps the local step of the polygons and of the pieces' marches (the
     // paper's fixed step keeps the step).
+    let index = pair::FineIndex::new(&traced, step);
     let caps: Vec<Cap> = if marching.uniform {
         Vec::new()
     } else {
         traced
             .iter()
-            .flat_map(|tr| width::caps(&mut t, tr))
+            .flat_map(|tr| width::caps(&mut t, tr, &traced, &index))
             .collect()
     };
     sizing.add_caps(caps.iter().copied());
     let mut polygons = Vec::with_capacity(traced.len());
     // Per face (the smallest form of its class): its directed polygons with their corners.
     let mut sides: BTreeMap<usize, Vec<Side>> = BTreeMap::new();
-    for tr in &traced {
-        let poly = t.resample(tr, &sizing, min_edge)?;
+    // Creases across narrow faces in phase (`pair.rs`): the places each crease's polygon
+    // asks of those made after it; a crease is resampled through the places of the one
+    // crease that asks for most (places from two creases, each in its own phase, would
+    // space the polygon unevenly).
+    let mut wanted: Vec<BTreeMap<usize, Vec<pair::Wanted>>> = vec![BTreeMap::new(); traced.len()];
+    let mut made = vec![false; traced.len()];
+    for (k, tr) in traced.iter().enumerate() {
+        let places = wanted[k]
+            .values()
+            .rev()
+            .max_by_key(|places| places.len())
+            .map_or(&[][..], |places| &places[..]);
+        let poly = t.resample(tr, &sizing, min_edge, places)?;
+        made[k] = true;
+        if !marching.uniform {
+            for (b, q) in pair::across(&mut t, &traced, &index, k, &poly, &made) {
+                wanted[b].entry(k).or_default().push(q);
+            }
+        }
         let (i, j) = tr.forms;
         let (left_i, left_j) = t.sides(tr)?;
         if left_i == left_j {

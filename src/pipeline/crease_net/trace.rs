@@ -7,6 +7,7 @@ use std::collections::{HashMap, HashSet};
 
 use glam::{DMat3, DVec3};
 
+use super::pair::Wanted;
 use super::{CreaseError, CreaseSettings};
 use crate::solve::SurfacePoint;
 use crate::solve::curve::{ArcLength, min_norm_step};
@@ -983,16 +984,30 @@ impl<'a> Tracer<'a> {
     /// graded as the marcher grades (neighbouring edges differ little, so the triangles on
     /// either side stay near-equilateral where the step changes: a fillet's fine spacing does
     /// not run on along the straight edges it joins), at least `min_edge` (the pieces'
-    /// shortest polygon edge); the ends kept exactly.
+    /// shortest polygon edge); the ends kept exactly. Where the crease across a narrow face
+    /// wants vertices (`wanted`, places near the crease: `pair.rs`), they are vertices, kept
+    /// half a local step apart, and the spans between them are filled at the local step; a
+    /// closed crease then starts at the first of them.
     pub fn resample(
         &mut self,
         tr: &Traced,
         sizing: &Sizing,
         min_edge: f64,
+        wanted: &[Wanted],
     ) -> Result<Vec<DVec3>, CreaseError> {
         let (i, j) = tr.forms;
-        let fine = &tr.points;
         let closed = tr.ends.is_none();
+        let started;
+        let fine: &[DVec3] = match wanted.first() {
+            Some(w) if closed && tr.seam.is_none() => match self.start_at(tr, w.at) {
+                Some(s) => {
+                    started = s;
+                    &started
+                }
+                None => &tr.points,
+            },
+            _ => &tr.points,
+        };
         let m = fine.len();
         let line = ArcLength::new(fine, closed).ok_or(CreaseError::Short {
             at: fine.first().copied().unwrap_or(DVec3::ZERO),
@@ -1064,8 +1079,7 @@ impl<'a> Tracer<'a> {
                 length: total,
             });
         }
-        let arcs = (1..n).map(|v| {
-            let target = whole * v as f64 / n as f64;
+        let arc_at = |target: f64| {
             let k = count
                 .partition_point(|&c| c < target)
                 .clamp(1, count.len() - 1);
@@ -1076,12 +1090,49 @@ impl<'a> Tracer<'a> {
                 0.0
             };
             field[k - 1].0 + w * (field[k].0 - field[k - 1].0)
-        });
+        };
+        // Places along less than half the crease set no phase worth the uneven spacing
+        // they leave round them (a rim given a few places by the plate's edge beside it).
+        let places = wanted.iter().map(|w| (line.nearest(w.at), w.edge));
+        let counts = if wanted.len() * 2 < n {
+            None
+        } else {
+            through(places, total, &field, &count, min_edge, self.step)
+        };
+        let counts =
+            counts.unwrap_or_else(|| (1..n).map(|v| whole * v as f64 / n as f64).collect());
+        let arcs = counts.into_iter().map(arc_at);
         match tr.seam {
             None => line.resample_at(arcs, |y, dir| self.correct(i, j, y, y, dir)),
             Some(seam) => line.resample_at(arcs, |y, dir| self.on_seam(i, seam.plane, y, dir)),
         }
         .map_err(|at| CreaseError::Lost { at })
+    }
+
+    /// A closed crease's fine line started at its point nearest w (on both forms).
+    fn start_at(&mut self, tr: &Traced, w: DVec3) -> Option<Vec<DVec3>> {
+        let fine = &tr.points;
+        let m = fine.len();
+        let line = ArcLength::new(fine, true)?;
+        let s = line.nearest(w);
+        let k = (0..m).rfind(|&k| line.at(k) <= s).unwrap_or(0);
+        let (a, b) = (fine[k], fine[(k + 1) % m]);
+        let seg = line.at(k + 1) - line.at(k);
+        let y = if seg > 0.0 {
+            a.lerp(b, (s - line.at(k)) / seg)
+        } else {
+            a
+        };
+        let (i, j) = tr.forms;
+        let start = self.correct(i, j, y, y, (b - a).normalize_or_zero())?;
+        let tiny = 1e-9 * self.step;
+        let mut out = vec![start];
+        out.extend(
+            (1..=m)
+                .map(|d| fine[(k + d) % m])
+                .filter(|p| p.distance(start) > tiny),
+        );
+        Some(out)
     }
 
     /// On which side of the crease, walked as traced, each of its faces lies: for the form
@@ -1159,4 +1210,72 @@ pub(super) fn sine(g1: DVec3, g2: DVec3) -> f64 {
     } else {
         0.0
     }
+}
+
+/// A place asked for by a polygon whose edges are down to the local step over this (and up
+/// to 1 + `SLACK` times it).
+const FIT: f64 = 1.25;
+/// A span between kept places takes edges up to 1 + this of the local step (∫ ds / h per
+/// edge) rather than one more edge.
+const SLACK: f64 = 0.1;
+
+/// The inner vertices of a polygon through `places` (arc lengths along a line `total` long,
+/// each with the edge length it was asked for), as counts of ∫ ds / h (`field`: arc length
+/// and local step; `count`: the integral at its samples): each place kept where the edge it
+/// was asked for fits the local step there (`FIT`, `SLACK`) and it is half its local step (and
+/// `min_edge`) or more from the last kept one and from the end, and the spans between
+/// filled with edges of equal ∫ ds / h, as few as keep them within `SLACK` of the local step,
+/// no longer than `step` and no shorter than `min_edge`. None if no place is kept.
+fn through(
+    places: impl Iterator<Item = (f64, f64)>,
+    total: f64,
+    field: &[(f64, f64)],
+    count: &[f64],
+    min_edge: f64,
+    step: f64,
+) -> Option<Vec<f64>> {
+    let sample = |s: f64| {
+        let k = field
+            .partition_point(|&(x, _)| x < s)
+            .clamp(1, field.len() - 1);
+        let (s0, s1) = (field[k - 1].0, field[k].0);
+        let w = if s1 > s0 {
+            ((s - s0) / (s1 - s0)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (
+            count[k - 1] + w * (count[k] - count[k - 1]),
+            field[k - 1].1 + w * (field[k].1 - field[k - 1].1),
+        )
+    };
+    let mut places: Vec<(f64, f64)> = places.collect();
+    places.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut anchors = vec![0.0];
+    for (s, edge) in places {
+        let h = sample(s).1;
+        let apart = (0.5 * h).max(min_edge);
+        let fits = edge <= (1.0 + SLACK) * h && h <= FIT * edge;
+        if fits && s - anchors[anchors.len() - 1] >= apart && total - s >= apart {
+            anchors.push(s);
+        }
+    }
+    if anchors.len() == 1 {
+        return None;
+    }
+    anchors.push(total);
+    let mut out = Vec::new();
+    for (k, pair) in anchors.windows(2).enumerate() {
+        let (a, b) = (pair[0], pair[1]);
+        let (ca, cb) = (sample(a).0, sample(b).0);
+        let length = b - a;
+        let edges = ((cb - ca - SLACK).ceil().max(1.0))
+            .max((length / step).ceil())
+            .min((length / min_edge).floor().max(1.0)) as usize;
+        if k > 0 {
+            out.push(ca);
+        }
+        out.extend((1..edges).map(|e| ca + (cb - ca) * e as f64 / edges as f64));
+    }
+    Some(out)
 }

@@ -7,16 +7,22 @@
 //!
 //! The cap is the width divided into whole rows of equilateral triangles (a row is √3/2 of
 //! its edge high), at least `MIN_ROWS` of them: a strip between two creases fits its
-//! triangles only when its width is a whole number of rows. Capping at the width itself
-//! gave 1.15 rows (a strip of slivers and right triangles), and one row would need the two
-//! creases' vertices staggered by half an edge, which their separate resampling does not
-//! give; two rows fit whatever the phase, the middle row of free vertices taking it up.
-//! Faces up to `REACH` steps wide are measured, as a strip 1.3 steps wide is as ill-fitting
-//! as one 0.9 wide. On the generated CAD parts' meshes below the quality bars (docs/quality.md,
-//! *Strips between creases*) the mean radius ratio went from 0.955 to 0.967 at the smallest
-//! feature and from 0.938 to 0.956 at 2½ times it, for 15 % more triangles; three rows
-//! at least gave 0.971 and 0.951, with more triangles below 30° where the grading from the
-//! strip's small step to the step is steep.
+//! triangles only when its width is a whole number of rows and its two creases' vertices are
+//! in phase (`pair.rs`). Capping at the width itself gave 1.15 rows (a strip of slivers and
+//! right triangles). With the creases in phase, four rows at least on a strip (a face whose
+//! far side is a crease running beside this one; two on a face narrowing into a corner
+//! between creases at an angle, whose width falls to nothing there): the runs of the
+//! generated CAD parts below the quality bars (docs/quality.md, *CAD parts*) went from 452 to
+//! 29 of 1 200 (of the 452 meshed again, 22 stayed below with four rows, 116 with three and
+//! 385 with two), for 52 % more triangles over the sweep (nearly all at and above the
+//! smallest feature, where faces are strips: the ends of a strip, where it meets a crease
+//! across it, cost the same whatever its length, and more rows make the strip's middle,
+//! where the phase puts whole rows, more of it). Without the phase, three
+//! rows had given more triangles below 30° than two. Faces up to `REACH` steps wide are
+//! measured, as a strip 1.3 steps wide is as ill-fitting as one 0.9 wide. The crease is
+//! measured about every quarter step; between two points that are capped, caps every half
+//! of the smaller size continue the bound along the crease, or it would rise by the
+//! grading between them (a hole's rim spaced a fifth wider than its wall's rows).
 //!
 //! Across the face: from a point p of the crease, along d = ±n × t (n the face's normal, t
 //! the crease's tangent), points p + s·d projected onto the face's form stay on the surface
@@ -25,17 +31,22 @@
 
 use glam::DVec3;
 
+use super::pair::FineIndex;
 use super::trace::{Traced, Tracer};
 use crate::survey::sizing::Cap;
 
 /// The face's end is looked for at these fractions of the step (eighths), then bisected.
 const PROBES: usize = 8;
 /// Faces up to this many steps wide cap the local step (module documentation).
-const REACH: f64 = 3.0;
+pub(super) const REACH: f64 = 3.0;
 /// The height of a row of equilateral triangles, as a fraction of their edge.
 const ROW: f64 = 0.866_025_403_784_438_6;
 /// The fewest rows a strip between creases is divided into (module documentation).
-const MIN_ROWS: f64 = 2.0;
+const MIN_ROWS: f64 = 4.0;
+/// The fewest rows across a face narrowing between creases at an angle: a wedge, whose
+/// width falls to nothing at the corner, where rows do not fit anyway and four of them gave
+/// triangles of 26° where a pyramid's four faces meet.
+const MIN_ROWS_WEDGE: f64 = 2.0;
 const BISECT: usize = 5;
 /// Points of a crease measured from: about every quarter step.
 const SPACING: f64 = 0.25;
@@ -45,11 +56,19 @@ const ON: f64 = 1e-4;
 
 /// Caps of the local step at points of `tr` where a face beside it is narrower than `REACH`
 /// steps: its width divided into whole rows of triangles.
-pub(super) fn caps(t: &mut Tracer<'_>, tr: &Traced) -> Vec<Cap> {
+pub(super) fn caps(
+    t: &mut Tracer<'_>,
+    tr: &Traced,
+    traced: &[Traced],
+    index: &FineIndex,
+) -> Vec<Cap> {
     let (i, j) = tr.forms;
     let points = &tr.points;
     let mut out = Vec::new();
     let mut since = f64::INFINITY;
+    // The point measured last, and the last capped point with its cap's size.
+    let mut last_measured = usize::MAX;
+    let mut previous: Option<(usize, f64)> = None;
     for k in 0..points.len() {
         if k > 0 {
             since += points[k].distance(points[k - 1]);
@@ -64,24 +83,69 @@ pub(super) fn caps(t: &mut Tracer<'_>, tr: &Traced) -> Vec<Cap> {
             continue;
         };
         let p = points[k];
-        let narrowest = [i, j]
+        let size = [i, j]
             .into_iter()
-            .filter_map(|form| width(t, form, p, tangent))
+            .filter_map(|form| {
+                let (width, end) = across(t, form, p, tangent)?;
+                // A strip takes `MIN_ROWS`; a face narrowing into a corner between two
+                // creases at an angle (a pyramid's face at its apex), two.
+                let strip = end.is_some_and(|q| index.beside(traced, q, tangent, t.step).is_some());
+                let least = if strip { MIN_ROWS } else { MIN_ROWS_WEDGE };
+                let rows = (width / (ROW * t.step)).ceil().max(least);
+                Some(width / (rows * ROW))
+            })
             .fold(f64::INFINITY, f64::min);
-        if narrowest < REACH * t.step {
-            let rows = (narrowest / (ROW * t.step)).ceil().max(MIN_ROWS);
-            out.push(Cap {
-                at: p,
-                size: narrowest / (rows * ROW),
-            });
+        if size.is_finite() {
+            // Between this point and the last one measured, if that was capped too: caps
+            // every half of the smaller size along the crease, so that the bound does not
+            // rise by the grading between caps a quarter step apart (rims spaced up to a
+            // fifth wider than their walls' rows between the measured points).
+            if let Some((from, last)) = previous.filter(|(from, _)| *from == last_measured) {
+                between(&points[from..=k], size.min(last), &mut out);
+            }
+            out.push(Cap { at: p, size });
+            previous = Some((k, size));
         }
+        last_measured = k;
     }
     out
 }
 
-/// The width of face `form` beside the crease point p with tangent t, if the face is
-/// narrower than `REACH` steps there.
-fn width(t: &mut Tracer<'_>, form: usize, p: DVec3, tangent: DVec3) -> Option<f64> {
+/// Caps of `size` every half of it along the polyline `line` (its ends excluded).
+fn between(line: &[DVec3], size: f64, out: &mut Vec<Cap>) {
+    let every = 0.5 * size;
+    let mut next = every;
+    let mut walked = 0.0;
+    for pair in line.windows(2) {
+        let length = pair[0].distance(pair[1]);
+        while next < walked + length {
+            let at = pair[0].lerp(pair[1], (next - walked) / length);
+            if at.distance(line[line.len() - 1]) > 0.25 * size {
+                out.push(Cap { at, size });
+            }
+            next += every;
+        }
+        walked += length;
+    }
+}
+
+/// The whole number of rows of equilateral triangles of edge `edge` across a face `width`
+/// wide, if they fit it to a quarter of a row.
+pub(super) fn rows(width: f64, edge: f64) -> Option<u32> {
+    let rows = width / (ROW * edge);
+    let whole = rows.round();
+    (whole >= 1.0 && (rows - whole).abs() <= 0.25).then_some(whole as u32)
+}
+
+/// Across face `form` from the crease point p with tangent t: the face's width, if it is
+/// narrower than `REACH` steps there, and the point of the form's zero set where it ends
+/// (on the crease at its far side; None where Newton left the finite).
+pub(super) fn across(
+    t: &mut Tracer<'_>,
+    form: usize,
+    p: DVec3,
+    tangent: DVec3,
+) -> Option<(f64, Option<DVec3>)> {
     let normal = t.c.form(form, p).gradient.try_normalize()?;
     let across = normal.cross(tangent).try_normalize()?;
     let probe = t.step / PROBES as f64;
@@ -106,21 +170,30 @@ fn width(t: &mut Tracer<'_>, form: usize, p: DVec3, tangent: DVec3) -> Option<f6
                 outside = mid;
             }
         }
-        return Some(0.5 * (inside + outside));
+        let w = 0.5 * (inside + outside);
+        return Some((w, onto_form(t, form, p + w * side)));
     }
     None
 }
 
-/// Whether q, projected onto the zero set of `form`, lies on the surface: f is 0 there.
-fn on_face(t: &mut Tracer<'_>, form: usize, mut q: DVec3) -> bool {
+/// q moved onto the zero set of `form` by three Newton steps, if they stay finite.
+fn onto_form(t: &mut Tracer<'_>, form: usize, mut q: DVec3) -> Option<DVec3> {
     for _ in 0..3 {
         let l = t.c.form(form, q);
         let g2 = l.gradient.length_squared();
         if !(g2 > 0.0 && l.value.is_finite()) {
-            return false;
+            return None;
         }
         q -= l.gradient * (l.value / g2);
     }
+    Some(q)
+}
+
+/// Whether q, projected onto the zero set of `form`, lies on the surface: f is 0 there.
+fn on_face(t: &mut Tracer<'_>, form: usize, q: DVec3) -> bool {
+    let Some(q) = onto_form(t, form, q) else {
+        return false;
+    };
     let f = t.c.whole(q);
     f.value.is_finite() && f.value.abs() <= ON * t.step * f.gradient.length()
 }
