@@ -505,29 +505,36 @@ impl<'a> ArcLength<'a> {
         mut correct: impl FnMut(DVec3, DVec3) -> Option<DVec3>,
     ) -> Result<Vec<DVec3>, DVec3> {
         let (fine, m) = (self.fine, self.fine.len());
-        let segments = self.cumulative.len() - 1;
         let mut out = Vec::with_capacity(arcs.size_hint().0 + 2);
         out.push(fine[0]);
         for s in arcs {
-            let i = self
-                .cumulative
-                .partition_point(|&c| c <= s)
-                .clamp(1, segments)
-                - 1;
-            let (a, b) = (fine[i], fine[(i + 1) % m]);
-            let seg_len = self.cumulative[i + 1] - self.cumulative[i];
-            let w = if seg_len > 0.0 {
-                (s - self.cumulative[i]) / seg_len
-            } else {
-                0.0
-            };
-            let y = a.lerp(b, w);
-            out.push(correct(y, (b - a).normalize_or_zero()).ok_or(y)?);
+            let (_, y, direction) = self.locate(s);
+            out.push(correct(y, direction).ok_or(y)?);
         }
         if !self.closed {
             out.push(fine[m - 1]);
         }
         Ok(out)
+    }
+
+    /// The point at arc length s: its segment, the point and the segment's unit direction
+    /// (zero for a degenerate one).
+    pub fn locate(&self, s: f64) -> (usize, DVec3, DVec3) {
+        let (fine, m) = (self.fine, self.fine.len());
+        let segments = self.cumulative.len() - 1;
+        let i = self
+            .cumulative
+            .partition_point(|&c| c <= s)
+            .clamp(1, segments)
+            - 1;
+        let (a, b) = (fine[i], fine[(i + 1) % m]);
+        let seg_len = self.cumulative[i + 1] - self.cumulative[i];
+        let w = if seg_len > 0.0 {
+            (s - self.cumulative[i]) / seg_len
+        } else {
+            0.0
+        };
+        (i, a.lerp(b, w), (b - a).normalize_or_zero())
     }
 }
 

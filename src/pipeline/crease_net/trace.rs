@@ -1114,17 +1114,9 @@ impl<'a> Tracer<'a> {
         let fine = &tr.points;
         let m = fine.len();
         let line = ArcLength::new(fine, true)?;
-        let s = line.nearest(w);
-        let k = (0..m).rfind(|&k| line.at(k) <= s).unwrap_or(0);
-        let (a, b) = (fine[k], fine[(k + 1) % m]);
-        let seg = line.at(k + 1) - line.at(k);
-        let y = if seg > 0.0 {
-            a.lerp(b, (s - line.at(k)) / seg)
-        } else {
-            a
-        };
+        let (k, y, direction) = line.locate(line.nearest(w));
         let (i, j) = tr.forms;
-        let start = self.correct(i, j, y, y, (b - a).normalize_or_zero())?;
+        let start = self.correct(i, j, y, y, direction)?;
         let tiny = 1e-9 * self.step;
         let mut out = vec![start];
         out.extend(
