@@ -358,32 +358,11 @@ impl Marcher<'_> {
         if gone.0 < self.fixed_points || !self.checkable[gone_node.index()] {
             return false;
         }
-        let from = self.first_tri[gone.index()] as usize;
-        let tris = &self.triangles[from.min(self.triangles.len())..];
-        if tris
-            .iter()
-            .any(|t| t.contains(&gone.0) && t.contains(&keep.0))
-        {
-            return false;
-        }
-        // Moving the triangles' corner from `gone` to `keep` must not flip any of them, nor
-        // flatten one into a sliver worse than the one the collapse avoids (`keep` a polygon
-        // vertex in line with two others: a triangle of three points on a crease).
-        let pk = self.pos[keep.index()];
-        let flips = tris.iter().filter(|t| t.contains(&gone.0)).any(|t| {
-            let [a, b, c] = t.map(|v| {
-                if v == gone.0 {
-                    pk
-                } else {
-                    self.pos[v as usize]
-                }
-            });
-            let n = t.iter().map(|&v| self.normal[v as usize]).sum::<DVec3>();
-            let [x, y, z] = crate::mesh::quality::triangle_angles(a, b, c);
-            (b - a).cross(c - a).dot(n) <= 0.0
-                || x.min(y).min(z) < self.angle[m.index()].to_degrees().min(COLLAPSED_MIN)
-        });
-        if flips {
+        // A triangle moved from `gone` to `keep` must not be flattened into a sliver worse
+        // than the one the collapse avoids (`keep` a polygon vertex in line with two others:
+        // a triangle of three points on a crease).
+        let min_angle = self.angle[m.index()].to_degrees().min(COLLAPSED_MIN);
+        if !self.merge_point(gone, keep, min_angle) {
             return false;
         }
         if self.trace {
@@ -395,16 +374,6 @@ impl Marcher<'_> {
                 self.angle[m.index()]
             );
         }
-        for t in &mut self.triangles[from..] {
-            for v in t.iter_mut() {
-                if *v == gone.0 {
-                    *v = keep.0;
-                }
-            }
-        }
-        let fk = self.first_tri[keep.index()].min(from as u32);
-        self.first_tri[keep.index()] = fk;
-        self.merged += 1;
         self.uncheck(m);
         self.rings.replace(m, &[]);
         self.uncheck(gone_node);
@@ -416,6 +385,48 @@ impl Marcher<'_> {
                 self.mark_pending(n);
             }
         }
+        true
+    }
+
+    /// Moves the triangles of point `gone` onto point `keep` (an edge collapse without the
+    /// edge), if none of them then faces away from its corners' normals or has an angle
+    /// below `min_angle` (degrees), and none has both corners already (the edge would fold).
+    /// False, with nothing changed, otherwise. The ring is the caller's.
+    pub(super) fn merge_point(&mut self, gone: PointId, keep: PointId, min_angle: f64) -> bool {
+        let from = self.first_tri[gone.index()] as usize;
+        let tris = &self.triangles[from.min(self.triangles.len())..];
+        if tris
+            .iter()
+            .any(|t| t.contains(&gone.0) && t.contains(&keep.0))
+        {
+            return false;
+        }
+        let pk = self.pos[keep.index()];
+        let flips = tris.iter().filter(|t| t.contains(&gone.0)).any(|t| {
+            let [a, b, c] = t.map(|v| {
+                if v == gone.0 {
+                    pk
+                } else {
+                    self.pos[v as usize]
+                }
+            });
+            let n = t.iter().map(|&v| self.normal[v as usize]).sum::<DVec3>();
+            let [x, y, z] = crate::mesh::quality::triangle_angles(a, b, c);
+            (b - a).cross(c - a).dot(n) <= 0.0 || x.min(y).min(z) < min_angle
+        });
+        if flips {
+            return false;
+        }
+        for t in &mut self.triangles[from..] {
+            for v in t.iter_mut() {
+                if *v == gone.0 {
+                    *v = keep.0;
+                }
+            }
+        }
+        let fk = self.first_tri[keep.index()].min(from as u32);
+        self.first_tri[keep.index()] = fk;
+        self.merged += 1;
         true
     }
 

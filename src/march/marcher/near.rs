@@ -9,7 +9,15 @@ use glam::DVec3;
 use super::Marcher;
 use crate::march::MarchError;
 use crate::march::angle::{ccw, polar};
-use crate::march::ring::{FrontId, NodeId};
+use crate::march::ring::{FrontId, NodeId, PointId};
+
+/// A near pair closer than this fraction of the smaller local step is one point, not a
+/// bridge: the free one is merged into the other (`snap`). United across so short a bridge,
+/// the fronts closed it with slivers the quality stage could not always mend (a hole's wall
+/// whose last row came within 0.005 of its rim: 28.8°; a boss's rim: a front angle of 358°).
+const SNAP: f64 = 0.25;
+/// The smallest angle (degrees) a triangle moved by a snap may have.
+const SNAP_MIN_ANGLE: f64 = 10.0;
 
 impl Marcher<'_> {
     /// Step 2 over the nodes that are new or changed. Splits or unites at the first near
@@ -160,6 +168,9 @@ impl Marcher<'_> {
     /// are united with a and b doubled; the first appearances are completed at once, the
     /// smaller front angle first, and the second ones take no part in later distance checks.
     fn unite(&mut self, a: NodeId, b: NodeId) -> Result<FrontId, MarchError> {
+        if let Some(f) = self.snap(a, b) {
+            return Ok(f);
+        }
         let fa = self.rings.front(a);
         let fb = self.rings.front(b);
         let other: Vec<NodeId> = self.rings.walk(fb);
@@ -198,5 +209,73 @@ impl Marcher<'_> {
             self.complete(second)?;
         }
         Ok(fa)
+    }
+
+    /// Step 2's union where a and b are closer than `SNAP`·h: the one of them that is a free
+    /// point (not on a polygon or the box, on the front once) is merged into the other —
+    /// its triangles take the other point — and the fronts are united at that one point,
+    /// which the united front then holds twice (as a union's doubled points, out of later
+    /// distance checks). None, with nothing changed, where neither can go.
+    fn snap(&mut self, a: NodeId, b: NodeId) -> Option<FrontId> {
+        let (pa, pb) = (self.rings.point(a), self.rings.point(b));
+        let h = self.h[pa.index()].min(self.h[pb.index()]);
+        if self.pos[pa.index()].distance(self.pos[pb.index()]) >= SNAP * h {
+            return None;
+        }
+        let free = |m: &Self, n: NodeId, p: PointId| {
+            p.0 >= m.fixed_points && !m.border[p.index()] && m.checkable[n.index()]
+        };
+        let a_goes = if free(self, a, pa) && self.merge_point(pa, pb, SNAP_MIN_ANGLE) {
+            true
+        } else if free(self, b, pb) && self.merge_point(pb, pa, SNAP_MIN_ANGLE) {
+            false
+        } else {
+            return None;
+        };
+        let fa = self.rings.front(a);
+        let fb = self.rings.front(b);
+        let other: Vec<NodeId> = self.rings.walk(fb);
+        // a, b1, …, b, a2: the gone point's two nodes leave, the kept point's two stay.
+        let (b1, a2) = self.rings.unite(a, b);
+        self.grow();
+        let moved = std::mem::take(&mut self.heaps[fb.index()]);
+        self.heaps[fa.index()].extend(moved);
+        for n in [a, b, b1, a2] {
+            self.uncheck(n);
+        }
+        let (gone, kept) = if a_goes {
+            ([a, a2], [b1, b])
+        } else {
+            ([b1, b], [a, a2])
+        };
+        for n in gone {
+            self.rings.replace(n, &[]);
+        }
+        for n in other {
+            if self.checkable[n.index()] {
+                self.mark_pending(n);
+            }
+        }
+        for k in kept {
+            for n in [self.rings.prev(k), k, self.rings.next(k)] {
+                self.update_angle(n);
+                if self.checkable[n.index()] {
+                    self.mark_pending(n);
+                }
+            }
+        }
+        if self.trace {
+            let (g, k) = if a_goes { (pa, pb) } else { (pb, pa) };
+            eprintln!(
+                "march: snap point {} into {} at {} (fronts {} and {}, {} points)",
+                g.0,
+                k.0,
+                self.pos[k.index()],
+                fa.0,
+                fb.0,
+                self.rings.len(fa)
+            );
+        }
+        Some(fa)
     }
 }
