@@ -315,6 +315,24 @@ fn crease_vertices_slide_to_mend_a_held_angle() {
     );
 }
 
+/// Free vertices near the creases are moved sideways for their angle once the pieces are
+/// joined, not only towards their ring's centroid (docs/creases.md, *Sliding along
+/// creases*): the sweep's lattice (part 232) at once its smallest feature, its scatter (part
+/// 68) at three times and its lattice (part 169) at half held a triangle of 29.4°, 29.1° and
+/// 29.8° between a crease corner, the crease's next vertex and a free vertex the centroid did
+/// not move; now each is right with every triangle at 30° or more.
+#[test]
+fn free_vertices_beside_a_crease_corner_move_for_their_angle() {
+    let dir = common::cli::scratch("cad-around");
+    for (case, multiple) in [(232, 1.0), (68, 3.0), (169, 0.5)] {
+        let class = Class::ALL[case % Class::ALL.len()];
+        let part = cad::generate(class, &mut case_rng(SEED, case));
+        let step = part.step(multiple);
+        let judged = mesh(&part, step, &dir);
+        assert_right_and_fine(&part, step, &judged);
+    }
+}
+
 /// After the slide, the warnings are counted again on the joined mesh: over the sweep's first
 /// plate, bracket, boss-and-rib part and flange at half and once their smallest feature, every
 /// right mesh with a triangle below 30° says so ("stay below").

@@ -8,7 +8,8 @@
 //! where that is below `KEEP_ANGLE`, else the sum of the star's radius ratios, never
 //! lowering its smallest angle below `KEEP_ANGLE`. After each round over them, the free
 //! vertices within two rings of them (whose places the pieces chose for the crease vertices
-//! as they were) move towards their ring's centroid by the same rules (`smooth_near`).
+//! as they were) move towards their ring's centroid by the same rules, or around their place
+//! where their star holds an angle below `KEEP_ANGLE` (`smooth_near`).
 //!
 //! A move is kept only when the new place is on both forms (Newton within the plane normal
 //! to the crease, `survey::faces::correct`), or on the seam's form and plane
@@ -31,6 +32,7 @@ use super::trace::{Traced, seam_point};
 use crate::march::Held;
 use crate::mesh::Mesh;
 use crate::mesh::quality::radius_ratio;
+use crate::solve::tangent_frame;
 use crate::survey::faces;
 use crate::survey::spine::Creased;
 
@@ -41,6 +43,10 @@ const TRIES: [f64; 6] = [-0.3, -0.15, -0.05, 0.05, 0.15, 0.3];
 /// Below this smallest angle a move aims at the angle; above it, at the radius ratios
 /// (`march::improve`'s `KEEP_ANGLE`).
 const KEEP_ANGLE: f64 = 34.0 * std::f64::consts::PI / 180.0;
+/// Directions tried around a free vertex whose star holds an angle below `KEEP_ANGLE`
+/// (`smooth_near`), and how far, as fractions of its mean distance to its ring.
+const AROUND: usize = 12;
+const AROUND_SHARES: [f64; 2] = [0.08, 0.16];
 /// The gain in the star's sum of radius ratios that a move for the ratios must make.
 const RATIO_GAIN: f64 = 2e-4;
 /// The gain in the sine of the star's smallest angle that a move for the angle must make.
@@ -273,8 +279,27 @@ fn smooth_near(
         let old_normal = mesh.normals[v as usize];
         let now = score(mesh, tris, v, p, old_normal, &[]);
         let mut best: Option<(DVec3, DVec3, Score)> = None;
-        for share in [1.0, 0.5] {
-            let Some((q, normal)) = onto_surface(c, p + share * (centroid - p), limits) else {
+        // Towards the centroid; and where the star holds an angle below `KEEP_ANGLE`, also
+        // around the vertex (`AROUND`): a free corner between a crease corner and the
+        // crease's next vertex may need to move sideways, not to the centroid, for its
+        // smallest angle (29.4° → 33° at a lattice's junction).
+        let mut guesses: Vec<DVec3> = [1.0, 0.5]
+            .iter()
+            .map(|share| p + share * (centroid - p))
+            .collect();
+        if now.min_sine < KEEP_ANGLE.sin() {
+            let reach = ring.iter().map(|w| w.distance(p)).sum::<f64>() / ring.len() as f64;
+            let (t1, t2) = tangent_frame(old_normal);
+            for k in 0..AROUND {
+                let turn = std::f64::consts::TAU * k as f64 / AROUND as f64;
+                let dir = turn.cos() * t1 + turn.sin() * t2;
+                for share in AROUND_SHARES {
+                    guesses.push(p + share * reach * dir);
+                }
+            }
+        }
+        for guess in guesses {
+            let Some((q, normal)) = onto_surface(c, guess, limits) else {
                 continue;
             };
             if !(q.cmpge(limits.bbox.0).all() && q.cmple(limits.bbox.1).all())
