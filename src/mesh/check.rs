@@ -363,6 +363,18 @@ impl Plane {
 /// entry order (a cell's neighbours gathered into one list), test boxes without a branch a
 /// comparison, and make a triangle's plane for the rejection once for all its neighbours.
 pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
+    intersecting_pairs_across(mesh, None)
+}
+
+/// A triangle's group in `intersecting_pairs_across` that is tested against every triangle.
+pub const ANY_GROUP: u32 = u32::MAX;
+
+/// `intersecting_pairs`, but with `groups` (one a triangle) pairs of two triangles of the
+/// same group other than `ANY_GROUP` are not looked at: meshes checked each on its own
+/// before they were put together (the pieces of a creased surface), checked again only
+/// across one another and where something moved since.
+pub fn intersecting_pairs_across(mesh: &Mesh, groups: Option<&[u32]>) -> Vec<[u32; 2]> {
+    debug_assert!(groups.is_none_or(|g| g.len() == mesh.triangles.len()));
     let vs = &mesh.vertices;
     let tris = &mesh.triangles;
     let slot = |i: u32| {
@@ -504,8 +516,15 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
                 for a in r.start..r.end {
                     let x = &slots[a as usize];
                     let mut plane = None;
+                    let group = groups.map(|g| g[x.triangle as usize]);
                     let mut scan = |ys: &[Slot]| {
                         for y in ys {
+                            if let (Some(gx), Some(g)) = (group, groups)
+                                && gx != ANY_GROUP
+                                && g[y.triangle as usize] == gx
+                            {
+                                continue;
+                            }
                             if !apart(x, y) && triangles_cross(vs, x.corners, y.corners, &mut plane)
                             {
                                 let (i, j) = (x.triangle, y.triangle);
@@ -745,6 +764,7 @@ mod tests {
             (DVec3::new(-0.5, 0.25, 1.0), 1.0e7),
             (DVec3::new(3.0, 3.0, 3.0), 1.0e-3),
         ];
+        let mut within = 0;
         for round in 0..40 {
             let (offset, spread) = places[round % places.len()];
             let mut vs = Vec::new();
@@ -813,6 +833,29 @@ mod tests {
                 assert_eq!(brute, all, "round {round}: the plane rejection");
             }
             assert_eq!(intersecting_pairs(&m), brute, "round {round}");
+            // With groups (three, and some triangles in every group's company): exactly the
+            // pairs across groups or with an `ANY_GROUP` triangle.
+            let groups: Vec<u32> = (0..m.triangles.len())
+                .map(|_| match (unit() * 4.0) as u32 {
+                    3 => ANY_GROUP,
+                    g => g,
+                })
+                .collect();
+            let across: Vec<[u32; 2]> = brute
+                .iter()
+                .copied()
+                .filter(|&[i, j]| {
+                    let (gi, gj) = (groups[i as usize], groups[j as usize]);
+                    gi != gj || gi == ANY_GROUP
+                })
+                .collect();
+            within += brute.len() - across.len();
+            assert_eq!(
+                intersecting_pairs_across(&m, Some(&groups)),
+                across,
+                "round {round}"
+            );
         }
+        assert!(within > 0, "no crossing pair within a group was left out");
     }
 }

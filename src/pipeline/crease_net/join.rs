@@ -15,8 +15,9 @@ use crate::survey::spine::Creased;
 /// The joined mesh is one surface: no edge in more than two triangles, none walked the same
 /// way twice (two pieces on one side of a crease), every triangle facing where the normals
 /// of its vertices point (a sliver closed across a thin piece does not), and no triangles
-/// crossing (each march checks its own; this checks them across pieces and components).
-pub(super) fn check_joined(mesh: &Mesh) -> Result<(), CreaseError> {
+/// crossing (each march checks its own; this checks them across pieces and components:
+/// `groups`, one a triangle, as `mesh::check::intersecting_pairs_across` takes them).
+pub(super) fn check_joined(mesh: &Mesh, groups: &[u32]) -> Result<(), CreaseError> {
     let centre = |t: usize| {
         mesh.triangles[t]
             .iter()
@@ -53,7 +54,8 @@ pub(super) fn check_joined(mesh: &Mesh) -> Result<(), CreaseError> {
             }
         }
     }
-    if let Some([a, _]) = crate::mesh::check::intersecting_pairs(mesh).first() {
+    if let Some([a, _]) = crate::mesh::check::intersecting_pairs_across(mesh, Some(groups)).first()
+    {
         return Err(CreaseError::Joined {
             at: centre(*a as usize),
             why: "triangles of two pieces cross",
@@ -317,4 +319,42 @@ pub(super) fn check_smooth(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::check::ANY_GROUP;
+
+    /// Two triangles that cross (one in z = 0, one in x = 0.1 through it), each with its own
+    /// normals: refused as two pieces or with either one moved since (`ANY_GROUP`), and left
+    /// to the pieces' own checks when both are of one piece.
+    #[test]
+    fn crossings_are_looked_for_across_pieces_and_where_moved() {
+        let vertices = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(0.1, 0.2, -0.5),
+            DVec3::new(0.1, 0.2, 0.5),
+            DVec3::new(0.1, -0.6, 0.0),
+        ];
+        let normals = vec![DVec3::Z, DVec3::Z, DVec3::Z, DVec3::X, DVec3::X, DVec3::X];
+        let mesh = Mesh {
+            vertices,
+            normals,
+            triangles: vec![[0, 1, 2], [3, 4, 5]],
+            sides: Vec::new(),
+        };
+        let crossed = |groups: &[u32]| match check_joined(&mesh, groups) {
+            Err(CreaseError::Joined { why, .. }) if why == "triangles of two pieces cross" => true,
+            Err(other) => panic!("{other:?}"),
+            Ok(()) => false,
+        };
+        assert!(crossed(&[0, 1]));
+        assert!(crossed(&[0, ANY_GROUP]));
+        assert!(crossed(&[ANY_GROUP, 0]));
+        assert!(crossed(&[ANY_GROUP, ANY_GROUP]));
+        assert!(!crossed(&[0, 0]));
+    }
 }

@@ -49,12 +49,13 @@ use glam::DVec3;
 use super::components::{self, Marching, SearchError, SearchSettings};
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
+use crate::mesh::check::ANY_GROUP;
 use crate::mesh::progress::Counts;
 use crate::surface::Surface;
 use crate::survey::faces::{FaceError, FaceSettings};
 use crate::survey::sizing::{Cap, Sizing};
 use crate::survey::spine::{Creased, Whole};
-use join::{Side, chain, check_joined, check_smooth};
+use join::{Side, bits, chain, check_joined, check_smooth};
 pub(crate) use join::{merge, merge_at};
 use trace::Tracer;
 
@@ -478,6 +479,12 @@ fn mesh_creased_once(
         out.pieces += 1;
         parts.push(marched.mesh);
     }
+    // Each piece's triangles were checked for crossings by its own march: the joined check
+    // looks only across pieces, at the components and where the slide moved a vertex.
+    let mut groups: Vec<u32> = Vec::new();
+    for (k, part) in parts.iter().enumerate() {
+        groups.extend(std::iter::repeat_n(k as u32, part.triangles.len()));
+    }
     let pieces = merge(&parts);
     let marching = Marching {
         max_triangles: limit,
@@ -507,8 +514,10 @@ fn mesh_creased_once(
     out.warnings.extend(found.march_warnings);
     out.smooth_components = found.components;
     out.mesh = merge(&[found.mesh]);
+    groups.resize(out.mesh.triangles.len(), ANY_GROUP);
     // The crease vertices slid along their creases (`slide`), where the quality stage runs:
     // the mesh as marched is kept where the slid one fails the joined check.
+    let mut checked = false;
     if slides {
         let (mesh, polygons) = (out.mesh.clone(), out.polygons.clone());
         let limits = slide::Limits {
@@ -521,14 +530,30 @@ fn mesh_creased_once(
         if trace {
             eprintln!("creases: {moves} crease vertex moves");
         }
-        if moves > 0 && check_joined(&out.mesh).is_err() {
-            if trace {
-                eprintln!("creases: the slid mesh fails the joined check; kept as marched");
+        if moves > 0 {
+            // The triangles around a moved vertex are checked against every other.
+            let mut slid = groups.clone();
+            for (g, tri) in slid.iter_mut().zip(&out.mesh.triangles) {
+                let moved = |v: u32| {
+                    let v = v as usize;
+                    bits(out.mesh.vertices[v]) != bits(mesh.vertices[v])
+                };
+                if tri.iter().any(|&v| moved(v)) {
+                    *g = ANY_GROUP;
+                }
             }
-            (out.mesh, out.polygons) = (mesh, polygons);
+            checked = check_joined(&out.mesh, &slid).is_ok();
+            if !checked {
+                if trace {
+                    eprintln!("creases: the slid mesh fails the joined check; kept as marched");
+                }
+                (out.mesh, out.polygons) = (mesh, polygons);
+            }
         }
     }
-    check_joined(&out.mesh)?;
+    if !checked {
+        check_joined(&out.mesh, &groups)?;
+    }
     if slides {
         let target = march_settings.quality_angle;
         let held = slide::held(
