@@ -171,21 +171,7 @@ impl Marcher<'_> {
         if let Some(f) = self.snap(a, b) {
             return Ok(f);
         }
-        let fa = self.rings.front(a);
-        let fb = self.rings.front(b);
-        let other: Vec<NodeId> = self.rings.walk(fb);
-        let (b1, a2) = self.rings.unite(a, b);
-        self.grow();
-        let moved = std::mem::take(&mut self.heaps[fb.index()]);
-        self.heaps[fa.index()].extend(moved);
-        for n in [a, b, b1, a2] {
-            self.uncheck(n);
-        }
-        for n in other {
-            if self.checkable[n.index()] {
-                self.mark_pending(n);
-            }
-        }
+        let (fa, fb, b1, a2) = self.unite_rings(a, b);
         for n in [a, b, b1, a2] {
             self.update_angle(n);
         }
@@ -211,6 +197,29 @@ impl Marcher<'_> {
         Ok(fa)
     }
 
+    /// The rings of a (the actual front) and b (another) made one, a → b1 … b → a2 → …,
+    /// the other front's heap moved to the actual one's, the four ends out of distance checks
+    /// and the other front's nodes queued for them. Returns (a's front, b's old front, b1,
+    /// a2).
+    fn unite_rings(&mut self, a: NodeId, b: NodeId) -> (FrontId, FrontId, NodeId, NodeId) {
+        let fa = self.rings.front(a);
+        let fb = self.rings.front(b);
+        let other: Vec<NodeId> = self.rings.walk(fb);
+        let (b1, a2) = self.rings.unite(a, b);
+        self.grow();
+        let moved = std::mem::take(&mut self.heaps[fb.index()]);
+        self.heaps[fa.index()].extend(moved);
+        for n in [a, b, b1, a2] {
+            self.uncheck(n);
+        }
+        for n in other {
+            if self.checkable[n.index()] {
+                self.mark_pending(n);
+            }
+        }
+        (fa, fb, b1, a2)
+    }
+
     /// Step 2's union where a and b are closer than `SNAP`·h: the one of them that is a free
     /// point (not on a polygon or the box, on the front once) is merged into the other —
     /// its triangles take the other point — and the fronts are united at that one point,
@@ -232,17 +241,8 @@ impl Marcher<'_> {
         } else {
             return None;
         };
-        let fa = self.rings.front(a);
-        let fb = self.rings.front(b);
-        let other: Vec<NodeId> = self.rings.walk(fb);
         // a, b1, …, b, a2: the gone point's two nodes leave, the kept point's two stay.
-        let (b1, a2) = self.rings.unite(a, b);
-        self.grow();
-        let moved = std::mem::take(&mut self.heaps[fb.index()]);
-        self.heaps[fa.index()].extend(moved);
-        for n in [a, b, b1, a2] {
-            self.uncheck(n);
-        }
+        let (fa, fb, b1, a2) = self.unite_rings(a, b);
         let (gone, kept) = if a_goes {
             ([a, a2], [b1, b])
         } else {
@@ -250,11 +250,6 @@ impl Marcher<'_> {
         };
         for n in gone {
             self.rings.replace(n, &[]);
-        }
-        for n in other {
-            if self.checkable[n.index()] {
-                self.mark_pending(n);
-            }
         }
         for k in kept {
             for n in [self.rings.prev(k), k, self.rings.next(k)] {

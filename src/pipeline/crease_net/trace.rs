@@ -1040,7 +1040,7 @@ impl<'a> Tracer<'a> {
                 };
                 h = h.min(sizing.size(&mut self.c.piece(f), &sp, None).h);
             }
-            field.push((line.at(k), h.max(floor)));
+            field.push((line.at(k), (CREASE_SHARE * h).max(floor)));
         }
         if closed {
             // Round the loop: the first sample again at the end.
@@ -1210,6 +1210,14 @@ const FIT: f64 = 1.25;
 /// A span between kept places takes edges up to 1 + this of the local step (∫ ds / h per
 /// edge) rather than one more edge.
 const SLACK: f64 = 0.1;
+
+/// Crease vertices are spaced at this share of the local step: the pieces' triangles beside
+/// a crease have their two other edges shorter than the step (the rows close against the
+/// crease polygon as a bound, and the caps of its edges grade the face down to them), and at
+/// the full step the crease edge was the longest of its triangle (median 1.045 of the mean of
+/// the other two on the CAD sweep's lattices; 0.93 brings it to 1.013, and the sweep's runs
+/// below the mean radius ratio of 0.97 from 19 to 6 of 1 200, for 7.6 % more triangles).
+const CREASE_SHARE: f64 = 0.93;
 
 /// The inner vertices of a polygon through `places` (arc lengths along a line `total` long,
 /// each with the edge length it was asked for), as counts of ∫ ds / h (`field`: arc length
