@@ -347,7 +347,10 @@ mod tests {
             sides: Vec::new(),
         };
         let crossed = |groups: &[u32]| match check_joined(&mesh, groups) {
-            Err(CreaseError::Joined { why, .. }) if why == "triangles of two pieces cross" => true,
+            Err(CreaseError::Joined {
+                why: "triangles of two pieces cross",
+                ..
+            }) => true,
             Err(other) => panic!("{other:?}"),
             Ok(()) => false,
         };
