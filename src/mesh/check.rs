@@ -516,13 +516,13 @@ pub fn intersecting_pairs_across(mesh: &Mesh, groups: Option<&[u32]>) -> Vec<[u3
                 for a in r.start..r.end {
                     let x = &slots[a as usize];
                     let mut plane = None;
-                    let group = groups.map(|g| g[x.triangle as usize]);
+                    // x's group, unless it is tested against every triangle.
+                    let group = groups
+                        .map(|g| (g, g[x.triangle as usize]))
+                        .filter(|&(_, gx)| gx != ANY_GROUP);
                     let mut scan = |ys: &[Slot]| {
                         for y in ys {
-                            if let (Some(gx), Some(g)) = (group, groups)
-                                && gx != ANY_GROUP
-                                && g[y.triangle as usize] == gx
-                            {
+                            if group.is_some_and(|(g, gx)| g[y.triangle as usize] == gx) {
                                 continue;
                             }
                             if !apart(x, y) && triangles_cross(vs, x.corners, y.corners, &mut plane)

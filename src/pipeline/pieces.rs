@@ -46,7 +46,7 @@ use crate::mesh::check::intersecting_pairs;
 use crate::mesh::quality;
 use crate::mesh::topology::{Topology, topology};
 use crate::solve::SurfacePoint;
-use crate::solve::curve::{self, CurveError};
+use crate::solve::curve::{self, CurveError, nearest_on_segment};
 use crate::solve::surfacepoint::tangent_frame;
 use crate::solve::tolerance::CurveTolerance;
 use crate::surface::Fork;
@@ -420,13 +420,7 @@ fn follows(a: &[DVec3], b: &[DVec3], reach: f64) -> bool {
     a.iter().all(|&p| {
         (0..b.len()).any(|i| {
             let (u, v) = (b[i], b[(i + 1) % b.len()]);
-            let d = v - u;
-            let t = if d.length_squared() > 0.0 {
-                ((p - u).dot(d) / d.length_squared()).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            (u + t * d).distance(p) <= reach
+            (u + nearest_on_segment(p, u, v) * (v - u)).distance(p) <= reach
         })
     })
 }

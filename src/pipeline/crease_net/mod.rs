@@ -532,13 +532,12 @@ fn mesh_creased_once(
         }
         if moves > 0 {
             // The triangles around a moved vertex are checked against every other.
+            let moved: Vec<bool> = (out.mesh.vertices.iter().zip(&mesh.vertices))
+                .map(|(&now, &was)| bits(now) != bits(was))
+                .collect();
             let mut slid = groups.clone();
             for (g, tri) in slid.iter_mut().zip(&out.mesh.triangles) {
-                let moved = |v: u32| {
-                    let v = v as usize;
-                    bits(out.mesh.vertices[v]) != bits(mesh.vertices[v])
-                };
-                if tri.iter().any(|&v| moved(v)) {
+                if tri.iter().any(|&v| moved[v as usize]) {
                     *g = ANY_GROUP;
                 }
             }

@@ -38,7 +38,7 @@ use crate::survey::sizing::Cap;
 /// The face's end is looked for at these fractions of the step (eighths), then bisected.
 const PROBES: usize = 8;
 /// Faces up to this many steps wide cap the local step (module documentation).
-pub(super) const REACH: f64 = 3.0;
+const REACH: f64 = 3.0;
 /// The height of a row of equilateral triangles, as a fraction of their edge.
 const ROW: f64 = 0.866_025_403_784_438_6;
 /// The fewest rows a strip between creases is divided into (module documentation).
