@@ -16,6 +16,19 @@ use crate::march::ring::{FrontId, NodeId, PointId};
 /// the fronts closed it with slivers the quality stage could not always mend (a hole's wall
 /// whose last row came within 0.005 of its rim: 28.8°; a boss's rim: a front angle of 358°).
 const SNAP: f64 = 0.25;
+/// How far inside each other's front angle (radians, from either front edge) a near pair
+/// must lie. A b along a front edge of a lies beyond a's neighbour on that edge (or on the
+/// edge itself), and a split or union there runs its bridge along the edge: the end of the
+/// bridge kept a front angle of half a degree, and on a lattice of rods at three times their
+/// radius the fronts then crossed and left the face. The neighbour is the nearer partner.
+const INSIDE_MARGIN: f64 = 0.05;
+/// The union completes the other of its first appearances at once only while its front angle
+/// is below this (π). Completing the first can put a new point beside the other one's
+/// neighbour: the other then has a front angle of 360° (its neighbours on one side) and
+/// would be closed with a full fan across meshed area (a flange's rim wall, turned: the fan
+/// left the wall and the piece was marched again finer). Left to Step 1, it waits until
+/// Step 2 has joined the new point to that neighbour.
+const AT_ONCE_BELOW: f64 = std::f64::consts::PI;
 /// The smallest angle (degrees) a triangle moved by a snap may have.
 const SNAP_MIN_ANGLE: f64 = 10.0;
 
@@ -93,12 +106,12 @@ impl Marcher<'_> {
             }
             let w1 = *w1a.get_or_insert_with(|| polar(pa, t1a, t2a, self.pos[ap_id.index()]));
             let th = ccw(w1, polar(pa, t1a, t2a, pb));
-            if !(th > 0.0 && th < self.angle[a.index()]) {
+            if !(th > INSIDE_MARGIN && th < self.angle[a.index()] - INSIDE_MARGIN) {
                 continue;
             }
             let w1b = polar(pb, self.t1[bi], self.t2[bi], self.p(bp));
             let thb = ccw(w1b, polar(pb, self.t1[bi], self.t2[bi], pa));
-            if !(thb > 0.0 && thb < self.angle[b.index()]) {
+            if !(thb > INSIDE_MARGIN && thb < self.angle[b.index()] - INSIDE_MARGIN) {
                 continue;
             }
             let d = pa.distance(pb);
@@ -166,7 +179,8 @@ impl Marcher<'_> {
 
     /// Step 2, second case: a of the actual front is near b of another front. The fronts
     /// are united with a and b doubled; the first appearances are completed at once, the
-    /// smaller front angle first, and the second ones take no part in later distance checks.
+    /// smaller front angle first (the other only while its angle is below `AT_ONCE_BELOW`),
+    /// and the second ones take no part in later distance checks.
     fn unite(&mut self, a: NodeId, b: NodeId) -> Result<FrontId, MarchError> {
         if let Some(f) = self.snap(a, b) {
             return Ok(f);
@@ -191,7 +205,10 @@ impl Marcher<'_> {
             (b1, a)
         };
         self.complete(first)?;
-        if self.rings.alive(second) && self.rings.len(fa) > 3 {
+        if self.rings.alive(second)
+            && self.rings.len(fa) > 3
+            && self.angle[second.index()] < AT_ONCE_BELOW
+        {
             self.complete(second)?;
         }
         Ok(fa)

@@ -57,7 +57,7 @@ use crate::survey::sizing::{Cap, Sizing};
 use crate::survey::spine::{Creased, Whole};
 use join::{Side, bits, chain, check_joined, check_smooth};
 pub(crate) use join::{merge, merge_at};
-use trace::Tracer;
+use trace::{CREASE_SHARE, Tracer};
 
 /// Settings of the crease search. Lengths are multiples of the step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -375,10 +375,12 @@ fn mesh_creased_once(
         }
         polygons.push(poly);
     }
-    // Each polygon vertex caps the pieces' local step at its longer polygon edge: a face
-    // whose rim is sampled finer than its own step (a blind hole's floor, whose rim follows
-    // the wall's curvature) is marched from that spacing, graded inwards, instead of with
-    // triangles of its own step on short edges (slivers fanning across the floor).
+    // Each polygon vertex caps the pieces' local step at the step its longer polygon edge was
+    // spaced for (the edge over `CREASE_SHARE`): a face whose rim is sampled finer than its
+    // own step (a blind hole's floor, whose rim follows the wall's curvature) is marched from
+    // that spacing, graded inwards, instead of with triangles of its own step on short edges
+    // (slivers fanning across the floor). Capped at the edge itself, the share shrank the
+    // pieces' rows with the crease's edges, and a strip's whole rows no longer fitted it.
     let mut caps = caps;
     if !marching.uniform {
         for poly in &polygons {
@@ -389,7 +391,7 @@ fn mesh_creased_once(
                 if longer > 0.0 && longer < step {
                     caps.push(Cap {
                         at: v,
-                        size: longer,
+                        size: (longer / CREASE_SHARE).min(step),
                     });
                 }
             }

@@ -1217,7 +1217,7 @@ const SLACK: f64 = 0.1;
 /// the full step the crease edge was the longest of its triangle (median 1.045 of the mean of
 /// the other two on the CAD sweep's lattices; 0.93 brings it to 1.013, and the sweep's runs
 /// below the mean radius ratio of 0.97 from 19 to 6 of 1 200, for 7.6 % more triangles).
-const CREASE_SHARE: f64 = 0.93;
+pub(super) const CREASE_SHARE: f64 = 0.93;
 
 /// The inner vertices of a polygon through `places` (arc lengths along a line `total` long,
 /// each with the edge length it was asked for), as counts of ∫ ds / h (`field`: arc length
