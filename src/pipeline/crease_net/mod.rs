@@ -388,10 +388,12 @@ fn mesh_creased_once(
                 let edge = |w: Option<&DVec3>| w.map_or(0.0, |w| w.distance(v));
                 let longer =
                     edge(k.checked_sub(1).and_then(|k| poly.get(k))).max(edge(poly.get(k + 1)));
-                if longer > 0.0 && longer < step {
+                // An edge spaced for the step or more caps nothing.
+                let spaced_for = longer / CREASE_SHARE;
+                if longer > 0.0 && spaced_for < step {
                     caps.push(Cap {
                         at: v,
-                        size: (longer / CREASE_SHARE).min(step),
+                        size: spaced_for,
                     });
                 }
             }

@@ -1213,10 +1213,12 @@ const SLACK: f64 = 0.1;
 
 /// Crease vertices are spaced at this share of the local step: the pieces' triangles beside
 /// a crease have their two other edges shorter than the step (the rows close against the
-/// crease polygon as a bound, and the caps of its edges grade the face down to them), and at
-/// the full step the crease edge was the longest of its triangle (median 1.045 of the mean of
-/// the other two on the CAD sweep's lattices; 0.93 brings it to 1.013, and the sweep's runs
-/// below the mean radius ratio of 0.97 from 19 to 6 of 1 200, for 7.6 % more triangles).
+/// crease polygon as a bound), and at the full step the crease edge was the longest of its
+/// triangle (median 1.045 of the mean of the other two on the CAD sweep's lattices; 0.93
+/// brought it to 1.013, and the sweep's runs below the mean radius ratio of 0.97 from 19 to 6
+/// of 1 200, for 7.6 % more triangles). The caps the polygon's vertices set on the pieces'
+/// step undo the share (`crease_net::mesh_creased_once`): the pieces march at the step the
+/// crease was spaced for, not at its shorter edges.
 pub(super) const CREASE_SHARE: f64 = 0.93;
 
 /// The inner vertices of a polygon through `places` (arc lengths along a line `total` long,
