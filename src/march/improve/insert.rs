@@ -1,7 +1,7 @@
 //! Where flips and smoothing do not mend a triangle below the target: insertion of an
 //! off-centre on trial (split of the triangle, of an edge, or of a boundary edge on a box
-//! face), kept only if it raises the smallest angle, and removal of a free corner merged
-//! into a neighbour.
+//! face), kept only if it raises the smallest angle, removal of a free corner merged
+//! into a neighbour, and two free vertices merged into one beside a fixed corner.
 
 use glam::DVec3;
 
@@ -146,6 +146,137 @@ impl Stage<'_> {
             }
         }
         let (_, c, star, i) = best?;
+        Some(self.merge_into(c, &star, i))
+    }
+
+    /// Merges two free vertices into one at the surface point nearest their midpoint, where
+    /// removing a corner of bad triangle t did not mend it: a free corner c of t and a free
+    /// neighbour k of c. This is the change of topology beside a fixed corner that neither a
+    /// move nor `remove_corner` makes: a crease corner's sector of 90° cut into three
+    /// triangles of about 30° at the corner (the corner may not move, and merging one free
+    /// vertex into the other leaves 60° and 30°) becomes two of about 45° (the CAD sweep's
+    /// last four runs below the angle, 29.4°–29.8°). Of the pairs, the one whose new
+    /// triangles' worst sine is best is taken, and only if that is above the worst of the
+    /// two fans before, every new triangle faces ∇f and folds no more than a flip may, every
+    /// new edge has its midpoint within `tolerance`, and the link allows it (the two rings
+    /// share only the corners of the two triangles at c–k). Returns the merged vertex (k).
+    pub(super) fn merge_pair(
+        &mut self,
+        t: u32,
+        surface: &mut dyn Surface,
+        tolerance: f64,
+        project: &mut Project<'_>,
+    ) -> Option<u32> {
+        debug_assert!(self.log.is_none());
+        let tv = self.tri[t as usize];
+        // Only for a smallest angle at a corner that may not move: elsewhere the moves and
+        // the removal mend a triangle, and a merge taken first (on the gallery's
+        // intersecting patches) left a triangle they could no longer lift.
+        let [a, b, c] = self.corners(tv);
+        let lens = [b.distance(c), c.distance(a), a.distance(b)];
+        let smallest = (0..3).min_by(|&x, &y| lens[x].total_cmp(&lens[y]))?;
+        if self.free(tv[smallest]) {
+            return None;
+        }
+        // (worst new sine, c, c's star, index of k in c's ring, point, normal).
+        let mut best: Option<(f64, u32, Vec<u32>, usize, DVec3, DVec3)> = None;
+        let (mut star_c, mut star_k) = (Vec::new(), Vec::new());
+        for &c in &tv {
+            if !self.free(c) || !self.star(c, &mut star_c) {
+                continue;
+            }
+            for i in 0..star_c.len() {
+                let k = self.dst(star_c[i]);
+                // A pair of two corners of t is looked at once, from the lower index.
+                if (tv.contains(&k) && k < c) || !self.free(k) || !self.star(k, &mut star_k) {
+                    continue;
+                }
+                let Some((worst, p, n)) =
+                    self.pair_merge(&star_c, i, &star_k, surface, tolerance, project)
+                else {
+                    continue;
+                };
+                if best.as_ref().is_none_or(|b| worst > b.0) {
+                    best = Some((worst, c, star_c.clone(), i, p, n));
+                }
+            }
+        }
+        let (_, c, star, i, p, n) = best?;
+        let keep = self.merge_into(c, &star, i);
+        self.place(keep, p, n);
+        Some(keep)
+    }
+
+    /// For free vertices c and k = ring[i] of c's closed fan `star_c`, k's closed fan
+    /// `star_k`: the merged vertex's worst new sine, point and normal, if the merge passes
+    /// `merge_pair`'s tests.
+    fn pair_merge(
+        &self,
+        star_c: &[u32],
+        i: usize,
+        star_k: &[u32],
+        surface: &mut dyn Surface,
+        tolerance: f64,
+        project: &mut Project<'_>,
+    ) -> Option<(f64, DVec3, DVec3)> {
+        let ring_c: Vec<u32> = star_c.iter().map(|&e| self.dst(e)).collect();
+        let ring_k: Vec<u32> = star_k.iter().map(|&e| self.dst(e)).collect();
+        let (nc, nk) = (ring_c.len(), ring_k.len());
+        let (c, k) = (self.org(star_c[0]), ring_c[i]);
+        let j = ring_k.iter().position(|&r| r == c)?;
+        // The link: the rings share the two corners at c–k and nothing else, and the merged
+        // ring has at least three corners.
+        let shared = ring_c.iter().filter(|r| ring_k.contains(r)).count();
+        if shared != 2 || nc + nk < 7 {
+            return None;
+        }
+        let (p, n) = project(surface, 0.5 * (self.p(c) + self.p(k)))?;
+        if !self.in_box(p) {
+            return None;
+        }
+        let old_worst = star_c
+            .iter()
+            .chain(star_k)
+            .map(|&e| self.q(self.tri[(e / 3) as usize]))
+            .fold(f64::INFINITY, f64::min);
+        // The merged ring, counter-clockwise: c's ring from the corner after k round to the
+        // corner before it, then k's ring likewise from the corner after c.
+        let merged: Vec<u32> = (1..nc)
+            .map(|x| ring_c[(i + x) % nc])
+            .chain((2..nk - 1).map(|x| ring_k[(j + x) % nk]))
+            .collect();
+        let m = merged.len();
+        let mut worst = f64::INFINITY;
+        let mut normals = Vec::with_capacity(m);
+        for x in 0..m {
+            let (r1, r2) = (merged[x], merged[(x + 1) % m]);
+            let corners = [p, self.p(r1), self.p(r2)];
+            let normal = (corners[1] - p).cross(corners[2] - p);
+            let faces = normal.length() > 0.0
+                && normal.dot(n) > 0.0
+                && [r1, r2]
+                    .iter()
+                    .all(|&r| normal.dot(self.normal[r as usize]) > 0.0);
+            if !faces {
+                return None;
+            }
+            normals.push(normal.normalize());
+            worst = worst.min(min_sin(corners[0], corners[1], corners[2]));
+        }
+        let folds = (0..m).any(|x| normals[x].dot(normals[(x + 1) % m]) < FOLD_COS);
+        if folds || worst <= old_worst {
+            return None;
+        }
+        let chords = merged
+            .iter()
+            .all(|&r| midpoint_within(surface, p, self.p(r), tolerance));
+        chords.then_some((worst, p, n))
+    }
+
+    /// Merges free vertex c, with closed fan `star`, into ring[i] (kept where it is): the
+    /// two triangles at the edge c–keep go, the others of c's fan take the kept corner
+    /// instead of c, and c is left unused. Returns the kept corner.
+    fn merge_into(&mut self, c: u32, star: &[u32], i: usize) -> u32 {
         let ring: Vec<u32> = star.iter().map(|&e| self.dst(e)).collect();
         let n = ring.len();
         let keep = ring[i];
@@ -218,7 +349,7 @@ impl Stage<'_> {
         for g in gone {
             self.remove_triangle(g);
         }
-        Some(keep)
+        keep
     }
 
     /// For free vertex c with closed fan `star`: the best of merging c into either vertex

@@ -1,7 +1,8 @@
 //! The quality stage between the march and the verification (issue 13): restricted-Delaunay
 //! edge flips, angle-based smoothing of free vertices on the surface, insertion of
 //! off-centres where a triangle stays below the target angle, and the merge of a free corner
-//! into a neighbour where insertion cannot mend it (`Stage::remove_corner`); then the mean
+//! into a neighbour where insertion cannot mend it (`Stage::remove_corner`), or of two free
+//! vertices into one beside a corner that may not move (`Stage::merge_pair`); then the mean
 //! radius ratio (issue 10, M4) raised to `Limits::ratio`, cheapest first: a round of
 //! smoothing towards the rings' centroids (`Stage::centroid_round`), and only where that
 //! falls short, valence flips and smoothing up the gradient of each fan's radius ratios
@@ -202,7 +203,7 @@ pub(super) struct Report {
     /// Moves of the smoothing rounds (`Stage::centroid_round`, `Stage::odt_rounds`).
     pub smoothing_moves: usize,
     pub inserted: usize,
-    /// Free corners removed (`Stage::remove_corner`).
+    /// Vertices removed (`Stage::remove_corner`, `Stage::merge_pair`).
     pub collapsed: usize,
     pub rounds: u32,
     /// Rounds of the radius ratio's phase after them (`polish`, both passes).

@@ -204,12 +204,16 @@ impl Stage<'_> {
                 }
             }
             // 4. Removal of a free corner of a bad triangle (merged into another corner of it),
-            // where insertion did not mend it.
+            // or else, at a fixed corner, two free vertices merged into one, where insertion
+            // did not mend it.
             if any_bad {
                 let mut t = 0;
                 while t < self.tri.len() as u32 {
                     let merged = (self.q(self.tri[t as usize]) < sin_bad)
-                        .then(|| self.remove_corner(t, surface, limits.tolerance))
+                        .then(|| {
+                            self.remove_corner(t, surface, limits.tolerance)
+                                .or_else(|| self.merge_pair(t, surface, limits.tolerance, project))
+                        })
                         .flatten();
                     if let Some(keep) = merged {
                         report.collapsed += 1;

@@ -462,6 +462,61 @@ fn a_needle_between_two_free_corners_is_merged() {
     assert!(case.worst_deg() > 44.0, "{}", case.worst_deg());
 }
 
+/// A crease corner's 90° sector cut into three triangles of about 30° at the corner, as
+/// the CAD sweep's last runs below the angle had it: corner c and the crease points a, b
+/// are polygon vertices, p and q free, each with a closed fan. `merge_pair` merges p and q
+/// into one vertex on the sector's bisector: two triangles of about 45° at the corner,
+/// consistent half-edges, χ kept, every triangle facing up, the worst angle above 40°.
+#[test]
+fn a_crease_corner_sector_of_three_thin_triangles_becomes_two() {
+    let p = |deg: f64, r: f64| {
+        let a = deg.to_radians();
+        DVec3::new(r * a.cos(), r * a.sin(), 0.0)
+    };
+    // c a b d e (polygon vertices), then the free p and q.
+    let (c, a, b, d, e, fp, fq) = (0, 1, 2, 3, 4, 5, 6);
+    let mut case = Case::new(
+        vec![
+            p(0.0, 0.0),
+            p(0.0, 1.0),
+            p(90.0, 1.0),
+            DVec3::new(1.6, 0.6, 0.0),
+            DVec3::new(1.0, 1.5, 0.0),
+            p(29.5, 1.0),
+            p(60.0, 1.0),
+        ],
+        vec![
+            [c, a, fp],
+            [c, fp, fq],
+            [c, fq, b],
+            [a, d, fp],
+            [fp, d, e],
+            [fp, e, fq],
+            [fq, e, b],
+        ],
+    );
+    let (euler, worst) = (case.euler(), case.worst_deg());
+    assert!(worst < 30.0, "{worst}");
+    let mut stage = case.stage(5, None);
+    let project: &mut Project<'_> = &mut |_, x: DVec3| Some((DVec3::new(x.x, x.y, 0.0), DVec3::Z));
+    let keep = stage.merge_pair(0, &mut Plane, 0.1, project);
+    assert!(keep == Some(fp) || keep == Some(fq), "{keep:?}");
+    let gone = if keep == Some(fp) { fq } else { fp };
+    assert_eq!(stage.tri.len(), 5);
+    assert!(stage.tri.iter().all(|t| !t.contains(&gone)));
+    assert_eq!(stage.out[gone as usize], NONE);
+    assert_twins(&stage);
+    // The merged vertex lies on the bisector of the corner's sector.
+    let m = stage.p(keep.unwrap());
+    assert!((m.y.atan2(m.x).to_degrees() - 44.75).abs() < 0.01, "{m}");
+    let at_corner = stage.tri.iter().filter(|t| t.contains(&c)).count();
+    assert_eq!(at_corner, 2);
+    drop(stage);
+    assert_eq!(case.euler(), euler);
+    assert!(case.all_up());
+    assert!(case.worst_deg() > 40.0, "{} → {}", worst, case.worst_deg());
+}
+
 /// A fan of `k` ring points around the origin at radii and heights from `jitter`.
 fn fan_of(k: usize, jitter: &[f64]) -> Fan {
     let mut fan = Fan {
