@@ -804,13 +804,52 @@ impl Creased {
         hi: DVec3,
         axes: [bool; 3],
     ) -> Option<IntervalGrad> {
+        let (value, forms) = self.form_gradients(lo, hi, axes)?;
+        let mut g = forms.into_iter().reduce(|o, acc| IntervalGrad {
+            v: o.v.hull(acc.v),
+            d: std::array::from_fn(|k| o.d[k].hull(acc.d[k])),
+            defined: o.defined && acc.defined,
+        })?;
+        g.v = value;
+        Some(g)
+    }
+
+    /// Whether an element of f's generalized gradient over the box lo..hi may be orthogonal
+    /// to both `across` directions (where a piece of the surface may have its extreme along
+    /// the direction orthogonal to them: the inside octree of `survey::cells`). Tighter than
+    /// the hull of the partials that `bound_gradient` gives: at a crease the two faces'
+    /// gradients span a box holding 0 (two normals along the axes: [0, 1] in two partials),
+    /// where the segment between them need not hold a vector orthogonal to both directions.
+    /// Each form's derivatives along the two directions bound a rectangle; the generalized
+    /// gradient's lie in the convex hull of those rectangles, and the answer is whether the
+    /// origin may lie in it. True when it cannot tell.
+    pub fn gradient_may_face(&mut self, lo: DVec3, hi: DVec3, across: [DVec3; 2]) -> bool {
+        let Some((_, forms)) = self.form_gradients(lo, hi, [true; 3]) else {
+            return true;
+        };
+        let mut corners = Vec::with_capacity(4 * forms.len());
+        for g in &forms {
+            let [a, b] = across.map(|d| g.derivative_along(d));
+            corners.extend([(a.lo, b.lo), (a.lo, b.hi), (a.hi, b.lo), (a.hi, b.hi)]);
+        }
+        origin_may_be_in_hull(&corners)
+    }
+
+    /// The value bound over the box lo..hi (as `bound`) and the value and partials (those
+    /// `axes` asks for) of each form that can be chosen there. None as for `bound_gradient`.
+    fn form_gradients(
+        &mut self,
+        lo: DVec3,
+        hi: DVec3,
+        axes: [bool; 3],
+    ) -> Option<(Interval, Vec<IntervalGrad>)> {
         let base = self.base_for(lo, hi);
         let branches = &mut self.branches;
         let (pruned, value) =
             base.pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
         let forms = pruned.candidates(None, MAX_CELL_FORMS).ok()?;
         let mut grads: HashMap<usize, IntervalGrad> = HashMap::new();
-        let mut out: Option<IntervalGrad> = None;
+        let mut out = Vec::with_capacity(forms.len());
         for cand in &forms {
             let mut acc = IntervalGrad::constant(Interval::point(cand.form.constant));
             for &(k, c) in &cand.form.terms {
@@ -826,18 +865,9 @@ impl Creased {
                 let v = interval(Op::Add, acc.v, interval(Op::Mul, g.v, c));
                 acc = acc.chain2(g, v, Interval::point(1.0), c);
             }
-            out = Some(match out {
-                None => acc,
-                Some(o) => IntervalGrad {
-                    v: o.v.hull(acc.v),
-                    d: std::array::from_fn(|k| o.d[k].hull(acc.d[k])),
-                    defined: o.defined && acc.defined,
-                },
-            });
+            out.push(acc);
         }
-        let mut g = out?;
-        g.v = value;
-        Some(g)
+        Some((value, out))
     }
 
     /// The values and gradients of the branches `spine` uses at p (others NaN).
@@ -1091,6 +1121,29 @@ impl Surface for Piece<'_> {
     }
 }
 
+/// Whether the origin may lie in the convex hull of the plane points `points`: false only
+/// when they all lie on one side of a line through the origin, with an angular gap wider
+/// than π by a margin (the corners come from outward-rounded intervals; the margin covers
+/// the rounding of the angles). A point at the origin or not finite: true.
+fn origin_may_be_in_hull(points: &[(f64, f64)]) -> bool {
+    let mut angles = Vec::with_capacity(points.len());
+    for &(x, y) in points {
+        if !(x.is_finite() && y.is_finite()) || (x == 0.0 && y == 0.0) {
+            return true;
+        }
+        angles.push(y.atan2(x));
+    }
+    angles.sort_by(f64::total_cmp);
+    let (Some(&first), Some(&last)) = (angles.first(), angles.last()) else {
+        return true;
+    };
+    let widest = angles
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(first + std::f64::consts::TAU - last, f64::max);
+    widest <= std::f64::consts::PI + 1e-9
+}
+
 /// f itself through its spine, as a [`Surface`]: its value and partials bounded over a box
 /// by the spine pruned over it (the work near a place depends on the forms near it).
 pub struct Whole<'a>(pub &'a mut Creased);
@@ -1106,6 +1159,10 @@ impl Surface for Whole<'_> {
 
     fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
         self.0.bound_gradient(lo, hi, axes)
+    }
+
+    fn gradient_may_face(&mut self, lo: DVec3, hi: DVec3, across: [DVec3; 2]) -> bool {
+        self.0.gradient_may_face(lo, hi, across)
     }
 
     fn fault(&self) -> Option<Fault> {
@@ -1183,5 +1240,118 @@ mod tests {
             Spine::new(vec![Term::Branch(1)], 1),
             Err(SpineError::Malformed(0))
         );
+    }
+
+    /// n·p + c, bounded exactly over a box (its partials are n).
+    struct Plane(DVec3, f64);
+
+    impl Surface for Plane {
+        fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+            ValueGrad {
+                value: self.0.dot(p) + self.1,
+                gradient: self.0,
+            }
+        }
+
+        fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
+            let (mut a, mut b) = (self.1, self.1);
+            for k in 0..3 {
+                let (x, y) = (self.0[k] * lo[k], self.0[k] * hi[k]);
+                (a, b) = (a + x.min(y), b + x.max(y));
+            }
+            Some(Interval::new(a - 1e-12, b + 1e-12))
+        }
+
+        fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, _: [bool; 3]) -> Option<IntervalGrad> {
+            let v = self.bound(lo, hi)?;
+            Some(IntervalGrad {
+                v,
+                d: self.0.to_array().map(Interval::point),
+                defined: true,
+            })
+        }
+    }
+
+    /// The corner of the box max(x, y, z) − 1 as a spine of three plane branches: along
+    /// the crease x = y = 1 the hull of the partials holds 0 (both normals lie on the axes),
+    /// so the interval derivatives across any direction may vanish, but no element of the
+    /// segment between the normals is parallel to a direction off the axes, and the forms'
+    /// hull says so; at the corner, whose normal cone holds the direction, it may.
+    #[test]
+    fn a_crease_faces_a_direction_only_where_its_normals_span_it() {
+        let spine = Spine::new(
+            vec![
+                Term::Branch(0),
+                Term::Branch(1),
+                Term::Max(0, 1),
+                Term::Branch(2),
+                Term::Max(2, 3),
+            ],
+            3,
+        )
+        .unwrap();
+        let branches: Vec<Box<dyn Surface>> = (0..3)
+            .map(|k| Box::new(Plane(DVec3::AXES[k], -1.0)) as Box<dyn Surface>)
+            .collect();
+        let mut creased = Creased::new(spine, branches).unwrap();
+        let d = DVec3::new(0.7, 0.55, 0.45).normalize();
+        let (u, w) = d.any_orthonormal_pair();
+        let (crease, corner, face) = (
+            (DVec3::new(0.99, 0.99, 0.2), DVec3::new(1.01, 1.01, 0.4)),
+            (DVec3::splat(0.99), DVec3::splat(1.01)),
+            (DVec3::new(0.99, 0.2, 0.3), DVec3::new(1.01, 0.4, 0.5)),
+        );
+        let hull = creased
+            .bound_gradient(crease.0, crease.1, [true; 3])
+            .unwrap();
+        assert!(hull.derivative_may_vanish(u) && hull.derivative_may_vanish(w));
+        assert!(!creased.gradient_may_face(crease.0, crease.1, [u, w]));
+        assert!(creased.gradient_may_face(corner.0, corner.1, [u, w]));
+        assert!(!creased.gradient_may_face(face.0, face.1, [u, w]));
+        // The opposite direction is an extreme too (the smallest d·p): the same answers.
+        assert!(creased.gradient_may_face(corner.0, corner.1, [-u, w]));
+    }
+
+    /// `origin_may_be_in_hull` against a scan of 3 600 directions on random point sets: a
+    /// direction with every point clearly on its positive side means false, and a set with a
+    /// point clearly on the negative side of every direction means true.
+    #[test]
+    fn the_origin_in_the_hull_agrees_with_a_scan_of_directions() {
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut inside, mut outside) = (0, 0);
+        for _ in 0..2000 {
+            let n = 1 + (next() * 8.0) as usize;
+            let shift = (next() - 0.5, next() - 0.5);
+            let points: Vec<(f64, f64)> = (0..n)
+                .map(|_| (next() - 0.5 + shift.0, next() - 0.5 + shift.1))
+                .collect();
+            let side = |k: usize| {
+                let a = std::f64::consts::TAU * k as f64 / 3600.0;
+                let (c, s) = (a.cos(), a.sin());
+                points
+                    .iter()
+                    .map(|&(x, y)| c * x + s * y)
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let sides: Vec<f64> = (0..3600).map(side).collect();
+            let got = origin_may_be_in_hull(&points);
+            if sides.iter().any(|&m| m > 1e-3) {
+                assert!(!got, "{points:?}");
+                outside += 1;
+            } else if sides.iter().all(|&m| m < -1e-3) {
+                assert!(got, "{points:?}");
+                inside += 1;
+            }
+        }
+        assert!(inside > 100 && outside > 100, "{inside} {outside}");
+        assert!(origin_may_be_in_hull(&[(1.0, 0.0), (-1.0, 0.0)]));
+        assert!(origin_may_be_in_hull(&[(0.0, 0.0)]));
+        assert!(origin_may_be_in_hull(&[(f64::NAN, 1.0)]));
     }
 }

@@ -84,6 +84,27 @@ impl IntervalGrad {
             .is_none_or(|d| d.is_empty() || d.contains(0.0))
     }
 
+    /// Whether the derivative along `dir` (Σ dir_k · ∂f/∂k) may be 0 somewhere in the cell;
+    /// along an axis exactly as [`IntervalGrad::partial_may_vanish`].
+    pub fn derivative_may_vanish(&self, dir: DVec3) -> bool {
+        let axes: Vec<usize> = (0..3).filter(|&k| dir[k] != 0.0).collect();
+        if let [k] = axes[..] {
+            return self.partial_may_vanish(k);
+        }
+        let d = self.derivative_along(dir);
+        d.is_empty() || d.contains(0.0)
+    }
+
+    /// An interval holding the derivative along `dir` (Σ dir_k · ∂f/∂k over the axes where
+    /// dir_k ≠ 0); empty where one of those partials is.
+    pub fn derivative_along(&self, dir: DVec3) -> Interval {
+        (0..3)
+            .filter(|&k| dir[k] != 0.0)
+            .fold(Interval::point(0.0), |sum, k| {
+                add(sum, mul(Interval::point(dir[k]), self.d[k]))
+            })
+    }
+
     /// f(self) with value `v` and f' in `k`.
     pub fn chain(self, v: Interval, k: Interval) -> IntervalGrad {
         IntervalGrad {

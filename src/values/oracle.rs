@@ -68,6 +68,17 @@ pub trait Surface {
         None
     }
 
+    /// Whether an element of f's generalized gradient over the box may be orthogonal to both
+    /// `across` directions — where a piece of the surface may have its extreme along the
+    /// direction orthogonal to them — when the surface can tell more than its interval
+    /// partials do (a piecewise f, whose forms' gradients are known one by one: the spine's
+    /// [`crate::survey::spine::Creased::gradient_may_face`]). Default: true (nothing
+    /// concluded).
+    fn gradient_may_face(&mut self, lo: DVec3, hi: DVec3, across: [DVec3; 2]) -> bool {
+        let _ = (lo, hi, across);
+        true
+    }
+
     /// The first fault met since the oracle was built (its value there was NaN), or None.
     /// The search and the march ask after each step and stop with its place, rather than
     /// go on through NaN (docs/implicitization.md). Default: None.
@@ -92,6 +103,9 @@ impl<S: Surface + ?Sized> Surface for Box<S> {
     fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
         (**self).bound_gradient(lo, hi, axes)
     }
+    fn gradient_may_face(&mut self, lo: DVec3, hi: DVec3, across: [DVec3; 2]) -> bool {
+        (**self).gradient_may_face(lo, hi, across)
+    }
     fn fault(&self) -> Option<Fault> {
         (**self).fault()
     }
@@ -112,6 +126,9 @@ impl<S: Surface + ?Sized> Surface for &mut S {
     }
     fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
         (**self).bound_gradient(lo, hi, axes)
+    }
+    fn gradient_may_face(&mut self, lo: DVec3, hi: DVec3, across: [DVec3; 2]) -> bool {
+        (**self).gradient_may_face(lo, hi, across)
     }
     fn fault(&self) -> Option<Fault> {
         (**self).fault()

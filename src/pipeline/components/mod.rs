@@ -6,13 +6,15 @@
 //! 1. Octrees over the box's inside, its six faces and its twelve edges keep the cells, down
 //!    to about the step (`SearchSettings::leaf`), where a piece of the surface in the box
 //!    must pass at one of its extremes: a piece that does not reach the faces is closed and
-//!    has a point of largest x, where ∂f/∂y = ∂f/∂z = 0 (for a crease, 0 is in the hull of
-//!    the gradients); a piece that reaches them crosses a face in curves, each of which has
-//!    a point of largest first face coordinate inside the face (where the derivative along
-//!    the second vanishes) or meets an edge. A cell is dropped when the interval bound of f
-//!    ([`Surface::bound`], and the mean-value form on small cells) excludes 0, or when the
-//!    interval partials ([`Surface::bound_gradient`]) show that the derivatives the region
-//!    needs cannot vanish there.
+//!    has a point of largest d·p (d a fixed direction off every axis), where the derivatives
+//!    across d vanish (for a crease, 0 is in the hull of the gradients'); a piece that
+//!    reaches them crosses a face in curves, each of which has a point of largest first face
+//!    coordinate inside the face (where the derivative along the second vanishes) or meets
+//!    an edge. A cell is dropped when the interval bound of f ([`Surface::bound`], and the
+//!    mean-value form on small cells) excludes 0, or when the interval partials
+//!    ([`Surface::bound_gradient`]) or, for a piecewise f, its forms' gradients
+//!    ([`Surface::gradient_may_face`]) show that the derivatives the region needs cannot
+//!    vanish there.
 //! 2. Each remaining cell (a face or edge cell grown into the box by a leaf), in octree
 //!    order, gives a seed: surfacepoint from its centre (or,
 //!    when that does not converge or leaves the box while the cell shows a sign change, from
