@@ -87,9 +87,9 @@ impl IntervalGrad {
     /// Whether the derivative along `dir` (Σ dir_k · ∂f/∂k) may be 0 somewhere in the cell;
     /// along an axis exactly as [`IntervalGrad::partial_may_vanish`].
     pub fn derivative_may_vanish(&self, dir: DVec3) -> bool {
-        let axes: Vec<usize> = (0..3).filter(|&k| dir[k] != 0.0).collect();
-        if let [k] = axes[..] {
-            return self.partial_may_vanish(k);
+        let along = dir.cmpne(DVec3::ZERO).bitmask();
+        if along.count_ones() == 1 {
+            return self.partial_may_vanish(along.trailing_zeros() as usize);
         }
         let d = self.derivative_along(dir);
         d.is_empty() || d.contains(0.0)
