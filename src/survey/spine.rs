@@ -804,12 +804,18 @@ impl Creased {
         hi: DVec3,
         axes: [bool; 3],
     ) -> Option<IntervalGrad> {
-        let (value, forms) = self.form_gradients(lo, hi, axes)?;
-        let mut g = forms.into_iter().reduce(|o, acc| IntervalGrad {
-            v: o.v.hull(acc.v),
-            d: std::array::from_fn(|k| o.d[k].hull(acc.d[k])),
-            defined: o.defined && acc.defined,
+        let mut hull: Option<IntervalGrad> = None;
+        let value = self.each_form_gradient(lo, hi, axes, |acc| {
+            hull = Some(match hull {
+                None => acc,
+                Some(o) => IntervalGrad {
+                    v: o.v.hull(acc.v),
+                    d: std::array::from_fn(|k| o.d[k].hull(acc.d[k])),
+                    defined: o.defined && acc.defined,
+                },
+            });
         })?;
+        let mut g = hull?;
         g.v = value;
         Some(g)
     }
@@ -824,32 +830,30 @@ impl Creased {
     /// gradient's lie in the convex hull of those rectangles, and the answer is whether the
     /// origin may lie in it. True when it cannot tell.
     pub fn gradient_may_face(&mut self, lo: DVec3, hi: DVec3, across: [DVec3; 2]) -> bool {
-        let Some((_, forms)) = self.form_gradients(lo, hi, [true; 3]) else {
-            return true;
-        };
-        let mut corners = Vec::with_capacity(4 * forms.len());
-        for g in &forms {
+        let mut corners = Vec::new();
+        let told = self.each_form_gradient(lo, hi, [true; 3], |g| {
             let [a, b] = across.map(|d| g.derivative_along(d));
             corners.extend([(a.lo, b.lo), (a.lo, b.hi), (a.hi, b.lo), (a.hi, b.hi)]);
-        }
-        origin_may_be_in_hull(&corners)
+        });
+        told.is_none() || origin_may_be_in_hull(&corners)
     }
 
-    /// The value bound over the box lo..hi (as `bound`) and the value and partials (those
-    /// `axes` asks for) of each form that can be chosen there. None as for `bound_gradient`.
-    fn form_gradients(
+    /// Calls `each` with the value and partials (those `axes` asks for) of each form that can
+    /// be chosen over the box lo..hi, in order, and gives the value bound there (as `bound`);
+    /// None, perhaps after some calls, as for `bound_gradient`.
+    fn each_form_gradient(
         &mut self,
         lo: DVec3,
         hi: DVec3,
         axes: [bool; 3],
-    ) -> Option<(Interval, Vec<IntervalGrad>)> {
+        mut each: impl FnMut(IntervalGrad),
+    ) -> Option<Interval> {
         let base = self.base_for(lo, hi);
         let branches = &mut self.branches;
         let (pruned, value) =
             base.pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
         let forms = pruned.candidates(None, MAX_CELL_FORMS).ok()?;
         let mut grads: HashMap<usize, IntervalGrad> = HashMap::new();
-        let mut out = Vec::with_capacity(forms.len());
         for cand in &forms {
             let mut acc = IntervalGrad::constant(Interval::point(cand.form.constant));
             for &(k, c) in &cand.form.terms {
@@ -865,9 +869,9 @@ impl Creased {
                 let v = interval(Op::Add, acc.v, interval(Op::Mul, g.v, c));
                 acc = acc.chain2(g, v, Interval::point(1.0), c);
             }
-            out.push(acc);
+            each(acc);
         }
-        Some((value, out))
+        Some(value)
     }
 
     /// The values and gradients of the branches `spine` uses at p (others NaN).
@@ -1317,13 +1321,7 @@ mod tests {
     /// point clearly on the negative side of every direction means true.
     #[test]
     fn the_origin_in_the_hull_agrees_with_a_scan_of_directions() {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::testing::uniform(0x2545_f491_4f6c_dd1d);
         let (mut inside, mut outside) = (0, 0);
         for _ in 0..2000 {
             let n = 1 + (next() * 8.0) as usize;
