@@ -97,11 +97,10 @@ pub struct MarchSettings {
     /// sphere of issue 14, 1.34 M triangles, is cut; no gallery example is). `u64::MAX`
     /// never cuts.
     pub pieces_above: u64,
-    /// The most slabs a component is cut into: ⌈estimate / `pieces_above`⌉, at least 2 and
-    /// at most this. Default 2: a slab between two planes meets the far plane's polygons
-    /// with its front, where the quality stage sometimes leaves a triangle just under 30° (a
-    /// sphere in four slabs: 29.3°, and the cut is refused; docs/pieces.md). Below 2 nothing
-    /// is cut.
+    /// The most slabs a component is cut into: ⌈estimate / `pieces_above`⌉ rounded up to a
+    /// power of two (so that 2, 4, 8 threads share them evenly), at least 2 and at most
+    /// this. Default 16: on a mesh of a few million triangles, a slab for each core of a
+    /// machine of 8–16 (docs/pieces.md). Below 2 nothing is cut.
     pub pieces_max: u32,
 }
 
@@ -132,7 +131,7 @@ impl Default for MarchSettings {
             refine_rounds: 4,
             refine_factor: 0.5,
             pieces_above: 200_000,
-            pieces_max: 2,
+            pieces_max: 16,
         }
     }
 }

@@ -7,9 +7,10 @@
 //! 1. Survey: a coarse march (`COARSE` × the step, no quality stage) from the same start
 //!    gives the component's extent, area and topology. Its area over √3/4·step² estimates
 //!    the triangle count; below `MarchSettings::pieces_above` the component is marched
-//!    whole. Otherwise it is cut into n = ⌈estimate / pieces_above⌉ slabs (2 ..=
-//!    `pieces_max`) of equal width along the longest axis of its extent. n depends only on
-//!    the surface and the settings, never on the number of threads.
+//!    whole. Otherwise it is cut into n = ⌈estimate / pieces_above⌉ slabs rounded up to a
+//!    power of two (2 ..= `pieces_max`: 2, 4 or 8 threads share them evenly), of equal width
+//!    along the longest axis of its extent. n depends only on the surface and the settings,
+//!    never on the number of threads.
 //! 2. Cuts: for each plane, the coarse mesh's section (closed polylines) seeds one trace per
 //!    loop (`solve::curve::intersection_with`, the plane as second surface), sampled at the
 //!    smallest local step along the loop. A plane is taken only if every loop closes, follows
@@ -74,6 +75,10 @@ pub const CUT_ANGLE: f64 = 30.0;
 /// radius ratio the joined slabs may have: the default aim 0.975 is docs/quality.md's bar of
 /// 0.97 with this margin.
 const RATIO_MARGIN: f64 = 0.005;
+/// A slab may make this many times the triangles the survey's area in it estimates, plus
+/// `SLAB_SHARE_MIN`, before its march is stopped (and the component marched whole).
+const SLAB_SHARE: f64 = 4.0;
+const SLAB_SHARE_MIN: u64 = 20_000;
 /// Triangles within this many steps of a plane are checked for crossings across pieces.
 const BAND: f64 = 3.0;
 
@@ -127,6 +132,15 @@ pub enum NoCut {
     Limit { total: u64, limit: u64 },
 }
 
+/// The cuts a component is marched in: the axis, the cuts in increasing position, the
+/// survey's Euler characteristic, and each slab's triangles as the survey estimates them.
+struct Plan {
+    axis: usize,
+    cuts: Vec<Cut>,
+    chi: i64,
+    estimates: Vec<f64>,
+}
+
 /// The cut of one plane: its position and loops (as traced).
 #[derive(Clone, Debug)]
 struct Cut {
@@ -154,14 +168,14 @@ pub fn march(
     if let (Some(fork), true) = (fork, eligible) {
         let started = std::time::Instant::now();
         let pieced = plan(fork, input, settings).and_then(|p| match p {
-            Some((axis, cuts, chi)) => {
+            Some(plan) => {
                 if trace {
                     eprintln!(
                         "pieces: survey and cuts {:.3} s",
                         started.elapsed().as_secs_f64()
                     );
                 }
-                march_pieces(fork, input, settings, axis, &cuts, chi, progress).map(Some)
+                march_pieces(fork, input, settings, &plan, progress).map(Some)
             }
             None => Ok(None),
         });
@@ -213,12 +227,12 @@ pub fn march(
 }
 
 /// The coarse survey and the cuts: None when the component is small enough to march whole,
-/// else the axis, the cuts in increasing position and the coarse mesh's Euler characteristic.
+/// else the plan of its slabs.
 fn plan(
     fork: &Fork<'_>,
     input: &MarchInput,
     settings: &MarchSettings,
-) -> Result<Option<(usize, Vec<Cut>, i64)>, NoCut> {
+) -> Result<Option<Plan>, NoCut> {
     let step = input.step;
     let mut s = fork().ok_or(NoCut::Fork)?;
     let coarse_input = MarchInput {
@@ -262,7 +276,8 @@ fn plan(
             0.5 * (b - a).cross(c - a).length()
         })
         .sum();
-    let estimate = area / (0.25 * 3f64.sqrt() * step * step);
+    let triangle = 0.25 * 3f64.sqrt() * step * step;
+    let estimate = area / triangle;
     // A NaN area (a survey vertex not finite) cuts nothing either.
     if estimate.is_nan() || estimate <= settings.pieces_above as f64 {
         return Ok(None);
@@ -271,7 +286,8 @@ fn plan(
     if !topo.is_closed_and_oriented() || topo.components != 1 {
         return Err(NoCut::CoarseOpen);
     }
-    let n = ((estimate / settings.pieces_above.max(1) as f64).ceil() as usize)
+    let mut n = ((estimate / settings.pieces_above.max(1) as f64).ceil() as usize)
+        .next_power_of_two()
         .clamp(2, settings.pieces_max.max(2) as usize);
     let (lo, hi) = coarse.vertices.iter().fold(
         (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
@@ -283,7 +299,66 @@ fn plan(
     let tolerance = input.tolerance.unwrap_or(settings.tolerance * step);
     let sizing = Sizing::of_mesh(step, tolerance, false, settings.sizing);
     let mut last = NoCut::Fork;
-    'axes: for axis in axes {
+    // Where no axis takes n - 1 planes (one meets the surface at a grazing angle wherever it
+    // is shifted: more planes, more such places), half as many slabs, down to two.
+    loop {
+        if let Some(cuts) = planes(
+            &mut s,
+            &coarse,
+            coarse_step,
+            n,
+            &axes,
+            lo,
+            extent,
+            step,
+            settings,
+            &sizing,
+            &mut last,
+        ) {
+            let (axis, cuts) = cuts;
+            // Each slab's triangles as the survey's area in it estimates them (a triangle in
+            // the slab of its centroid).
+            let mut estimates = vec![0.0; cuts.len() + 1];
+            for t in &coarse.triangles {
+                let [a, b, c] = t.map(|k| coarse.vertices[k as usize]);
+                let centre = (a[axis] + b[axis] + c[axis]) / 3.0;
+                let slab = cuts.partition_point(|cut| cut.at < centre);
+                estimates[slab] += 0.5 * (b - a).cross(c - a).length() / triangle;
+            }
+            return Ok(Some(Plan {
+                axis,
+                cuts,
+                chi: topo.euler_characteristic,
+                estimates,
+            }));
+        }
+        if n <= 2 {
+            return Err(last);
+        }
+        n = (n / 2).max(2);
+    }
+}
+
+/// The n - 1 planes of n slabs across the first of `axes` where every plane can be cut (each
+/// at its place or shifted), with their loops; None (and the last refusal in `last`) where
+/// no axis takes them all.
+// The survey (oracle, mesh, its step and extent), the slabs, and what the loops are sampled
+// for.
+#[allow(clippy::too_many_arguments)]
+fn planes(
+    s: &mut dyn Surface,
+    coarse: &Mesh,
+    coarse_step: f64,
+    n: usize,
+    axes: &[usize; 3],
+    lo: DVec3,
+    extent: DVec3,
+    step: f64,
+    settings: &MarchSettings,
+    sizing: &Sizing,
+    last: &mut NoCut,
+) -> Option<(usize, Vec<Cut>)> {
+    'axes: for &axis in axes {
         let width = extent[axis] / n as f64;
         let mut cuts = Vec::with_capacity(n - 1);
         for k in 1..n {
@@ -291,21 +366,12 @@ fn plan(
             let mut found = None;
             for shift in SHIFTS {
                 let at = base + shift * width;
-                match cut(
-                    &mut s,
-                    &coarse,
-                    coarse_step,
-                    axis,
-                    at,
-                    step,
-                    settings,
-                    &sizing,
-                ) {
+                match cut(s, coarse, coarse_step, axis, at, step, settings, sizing) {
                     Ok(loops) => {
                         found = Some(Cut { at, loops });
                         break;
                     }
-                    Err(e) => last = e,
+                    Err(e) => *last = e,
                 }
             }
             match found {
@@ -313,9 +379,9 @@ fn plan(
                 None => continue 'axes,
             }
         }
-        return Ok(Some((axis, cuts, topo.euler_characteristic)));
+        return Some((axis, cuts));
     }
-    Err(last)
+    None
 }
 
 /// The plane's cut loops, traced from the coarse section and checked as the module
@@ -487,12 +553,12 @@ fn march_pieces(
     fork: &Fork<'_>,
     input: &MarchInput,
     settings: &MarchSettings,
-    axis: usize,
-    cuts: &[Cut],
-    chi: i64,
+    plan: &Plan,
     progress: Option<&AtomicU64>,
 ) -> Result<Pieced, NoCut> {
+    let (axis, cuts, chi) = (plan.axis, &plan.cuts[..], plan.chi);
     let n = cuts.len() + 1;
+    let limit = input.max_triangles.unwrap_or(settings.max_triangles);
     let inputs: Vec<MarchInput> = (0..n)
         .map(|k| {
             // The upper plane's loops as traced (this slab below them), the lower plane's
@@ -509,12 +575,16 @@ fn march_pieces(
                 }));
             }
             let front = loops.remove(0);
+            // A slab that marches far beyond its share (its front got past a cut it should
+            // have stopped at, and goes round the surface again) is stopped early: the
+            // component is then marched whole, as for any failed piece.
+            let share = (SLAB_SHARE * plan.estimates[k]) as u64 + SLAB_SHARE_MIN;
             MarchInput {
                 step: input.step,
                 start: Start::Front(front),
                 bounds: loops,
                 bbox: None,
-                max_triangles: input.max_triangles,
+                max_triangles: Some(share.min(limit)),
                 tolerance: input.tolerance,
                 uniform: false,
             }
@@ -545,7 +615,6 @@ fn march_pieces(
         }
     }
     let total: u64 = marched.iter().map(|m| m.mesh.triangles.len() as u64).sum();
-    let limit = input.max_triangles.unwrap_or(settings.max_triangles);
     if total > limit {
         return Err(NoCut::Limit { total, limit });
     }

@@ -157,12 +157,12 @@ fn generated_shapes_are_meshed_right_or_refused() {
     let mut voxel_checked = 0;
     // `SURFC_SWEEP_PIECES=N`: each shape marched as `surfc mesh` marches a start-point block
     // (`pipeline::pieces`, on the rayon pool), with a component of more than about N
-    // triangles cut into slabs (up to 3) whose cut curves are traced and shared.
+    // triangles cut into slabs (as many as `pieces::march` makes of them by default) whose
+    // cut curves are traced and shared.
     let pieces_above: Option<u64> = env_number("SURFC_SWEEP_PIECES");
     let settings = match pieces_above {
         Some(above) => MarchSettings {
             pieces_above: above,
-            pieces_max: 3,
             ..MarchSettings::default()
         },
         None => MarchSettings::default(),
