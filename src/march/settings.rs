@@ -93,14 +93,17 @@ pub struct MarchSettings {
     pub refine_factor: f64,
     /// Parallel pieces (`pipeline::pieces`): a component marched from a start point whose
     /// estimated triangle count (its area over √3/4·δ², from a coarse survey) is above this is
-    /// cut along planes into slabs marched on separate threads. Default 200 000 (the fine
-    /// sphere of issue 14, 1.34 M triangles, is cut; no gallery example is). `u64::MAX`
-    /// never cuts.
+    /// cut along planes into slabs marched on separate threads. Default 50 000 (the three
+    /// cylinders in their box at step 0.1, 120 k triangles, are cut in two; no gallery example
+    /// is). `u64::MAX` never cuts.
     pub pieces_above: u64,
-    /// The most slabs a component is cut into: ⌈estimate / `pieces_above`⌉ rounded up to a
-    /// power of two (so that 2, 4, 8 threads share them evenly), at least 2 and at most
-    /// this. Default 16: on a mesh of a few million triangles, a slab for each core of a
-    /// machine of 8–16 (docs/pieces.md). Below 2 nothing is cut.
+    /// The triangles a slab is cut for: a component is cut into ⌈estimate / this⌉ slabs
+    /// rounded up to a power of two (so that 2, 4, 8 threads share them evenly), at least 2
+    /// and at most `pieces_max`. Default 200 000.
+    pub piece_triangles: u64,
+    /// The most slabs a component is cut into. Default 16: on a mesh of a few million
+    /// triangles, a slab for each core of a machine of 8–16 (docs/pieces.md). Below 2 nothing
+    /// is cut.
     pub pieces_max: u32,
 }
 
@@ -130,7 +133,8 @@ impl Default for MarchSettings {
             tolerance: 0.1,
             refine_rounds: 4,
             refine_factor: 0.5,
-            pieces_above: 200_000,
+            pieces_above: 50_000,
+            piece_triangles: 200_000,
             pieces_max: 16,
         }
     }

@@ -163,6 +163,7 @@ fn generated_shapes_are_meshed_right_or_refused() {
     let settings = match pieces_above {
         Some(above) => MarchSettings {
             pieces_above: above,
+            piece_triangles: above,
             ..MarchSettings::default()
         },
         None => MarchSettings::default(),
@@ -424,6 +425,7 @@ fn slabs_below_the_mean_radius_ratio_are_not_taken() {
         .collect();
     let settings = MarchSettings {
         pieces_above: 2000,
+        piece_triangles: 2000,
         pieces_max: 3,
         ..MarchSettings::default()
     };
@@ -457,4 +459,141 @@ fn slabs_below_the_mean_radius_ratio_are_not_taken() {
             q.radius_ratio_mean
         );
     }
+}
+
+/// Generated shapes in a box that clips them (their bounding box a step larger, with one or
+/// two faces moved in by 0.15–0.35 of its size, the start kept inside; steps from half the
+/// smallest feature to one and a half times it),
+/// marched whole and cut into slabs (the planes' cut
+/// curves and the box's border curves traced and shared, `pipeline::pieces`, docs/pieces.md,
+/// *In a box*; components above 500 triangles cut). Where the slabs are taken, the joined mesh must be what the whole march in
+/// the box is: every vertex on the surface and in the box, every open edge on the box's
+/// faces, no crossings, the same Euler characteristic, boundary loops and components, the
+/// area within half a percent and the extent within a step of the whole march's. Shapes the
+/// whole march refuses in their box are counted, not compared. `SURFC_BOXED_SLABS=N` runs N
+/// shapes (default 20; `.ci/run` runs 100).
+#[test]
+fn boxed_slabs_mesh_what_the_whole_march_in_the_box_meshes() {
+    let n: usize = env_number("SURFC_BOXED_SLABS").unwrap_or(20);
+    let mut rng = Rng(DEFAULT_SEED ^ 0xB0C5);
+    let whole_settings = MarchSettings {
+        pieces_above: u64::MAX,
+        ..MarchSettings::default()
+    };
+    let slab_settings = MarchSettings {
+        pieces_above: 500,
+        piece_triangles: 500,
+        ..MarchSettings::default()
+    };
+    let area = |m: &surfc::mesh::Mesh| -> f64 {
+        m.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|k| m.vertices[k as usize]);
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum()
+    };
+    let extent = |m: &surfc::mesh::Mesh| {
+        m.vertices.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &v| (lo.min(v), hi.max(v)),
+        )
+    };
+    let (mut cut, mut whole_only, mut refused) = (0, 0, 0);
+    for i in 0..n {
+        let sh = shape(&mut rng, i);
+        let step = sh.feature * log_range(&mut rng, 0.5, 1.5);
+        // The box: the shape's, a step larger all round, with one or two faces moved in.
+        let (mut lo, mut hi) = (
+            sh.bbox.0 - DVec3::splat(step),
+            sh.bbox.1 + DVec3::splat(step),
+        );
+        let size = hi - lo;
+        for _ in 0..1 + (rng.unit() * 2.0) as usize {
+            let axis = (rng.unit() * 3.0) as usize % 3;
+            let moved = rng.range(0.15, 0.35) * size[axis];
+            if rng.unit() < 0.5 {
+                if sh.start[axis] < hi[axis] - moved - step {
+                    hi[axis] -= moved;
+                }
+            } else if sh.start[axis] > lo[axis] + moved + step {
+                lo[axis] += moved;
+            }
+        }
+        let input = MarchInput {
+            bbox: Some((lo, hi)),
+            ..MarchInput::from_point(step, sh.start)
+        };
+        let fork = || Some(sh.surface());
+        let whole = match pieces::march(
+            sh.surface().as_mut(),
+            Some(&fork),
+            &input,
+            &whole_settings,
+            None,
+        ) {
+            Ok(w) => w.marched.mesh,
+            Err(e) => {
+                println!("#{i} {} at step {step:.4}: refused whole: {e}", sh.name);
+                refused += 1;
+                continue;
+            }
+        };
+        let sliced = pieces::march(
+            sh.surface().as_mut(),
+            Some(&fork),
+            &input,
+            &slab_settings,
+            None,
+        )
+        .unwrap_or_else(|e| panic!("#{i} {}: refused in slabs, right whole: {e}", sh.name));
+        if sliced.pieces == 1 {
+            whole_only += 1;
+            continue;
+        }
+        cut += 1;
+        let whole_topo = surfc::mesh::topology::topology(&whole);
+        let mesh = &sliced.marched.mesh;
+        let (topo, violations) = check(
+            mesh,
+            Some(sh.surface().as_mut()),
+            &Expect {
+                euler: Some(whole_topo.euler_characteristic),
+                components: Some(whole_topo.components),
+                boundary_loops: Some(whole_topo.boundary_loops.len()),
+                bbox: Some((lo, hi)),
+                boundary_on_box: true,
+                box_tolerance: 1e-9 * step,
+                max_vertex_error: Some(1e-6 * step),
+                min_angle_deg: 0.0,
+                ..Expect::default()
+            },
+        );
+        let (a, b) = (area(mesh), area(&whole));
+        let ((l1, h1), (l2, h2)) = (extent(mesh), extent(&whole));
+        println!(
+            "#{i} {} at step {step:.4}: {} slabs, {} triangles (whole {}), area {a:.5} ({b:.5}), χ {}, {} boundary loop(s)",
+            sh.name,
+            sliced.pieces,
+            topo.triangles,
+            whole.triangles.len(),
+            topo.euler_characteristic,
+            topo.boundary_loops.len()
+        );
+        assert!(violations.is_empty(), "#{i} {}: {violations:?}", sh.name);
+        assert!(
+            (a - b).abs() <= 0.005 * b,
+            "#{i} {}: area {a} against {b}",
+            sh.name
+        );
+        assert!(
+            (l1 - l2).abs().max_element() <= step && (h1 - h2).abs().max_element() <= step,
+            "#{i} {}: extent {l1}..{h1} against {l2}..{h2}",
+            sh.name
+        );
+    }
+    println!(
+        "boxed slabs of {n} shapes: {cut} cut and the whole march's, {whole_only} marched whole, {refused} refused whole"
+    );
 }

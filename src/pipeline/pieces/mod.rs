@@ -34,6 +34,8 @@
 //! Deterministic: planes, loops, pieces and the join follow fixed orders; results are taken
 //! in slab order.
 
+mod boxed;
+
 use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -141,12 +143,15 @@ struct Plan {
     estimates: Vec<f64>,
 }
 
-/// The cut of one plane: its position and loops (as traced).
+/// What was cut at one plane: its position and what the cut made (the loops as traced).
 #[derive(Clone, Debug)]
-struct Cut {
-    at: f64,
-    loops: Vec<Vec<DVec3>>,
+pub(super) struct Placed<T> {
+    pub at: f64,
+    pub loops: T,
 }
+
+/// The cut of one plane of a component that is not in a box: closed loops.
+type Cut = Placed<Vec<Vec<DVec3>>>;
 
 /// Marches `input` as `march::march_verified` does; a large component from a start point
 /// (no bounds, no box, not uniform) with a `fork` is cut into slabs marched on the rayon pool
@@ -162,20 +167,24 @@ pub fn march(
     let trace = crate::trace::enabled();
     let eligible = matches!(input.start, Start::Point(_))
         && input.bounds.is_empty()
-        && input.bbox.is_none()
         && !input.uniform
         && settings.pieces_max >= 2;
     if let (Some(fork), true) = (fork, eligible) {
         let started = std::time::Instant::now();
-        let pieced = plan(fork, input, settings).and_then(|p| match p {
-            Some(plan) => {
+        let planned = if input.bbox.is_some() {
+            boxed::plan(fork, input, settings)
+        } else {
+            plan(fork, input, settings).map(|p| p.map(|plan| slabs(input, settings, &plan)))
+        };
+        let pieced = planned.and_then(|p| match p {
+            Some(slabs) => {
                 if trace {
                     eprintln!(
                         "pieces: survey and cuts {:.3} s",
                         started.elapsed().as_secs_f64()
                     );
                 }
-                march_pieces(fork, input, settings, &plan, progress).map(Some)
+                march_slabs(fork, input, settings, &slabs, progress).map(Some)
             }
             None => Ok(None),
         });
@@ -235,101 +244,40 @@ fn plan(
 ) -> Result<Option<Plan>, NoCut> {
     let step = input.step;
     let mut s = fork().ok_or(NoCut::Fork)?;
-    let coarse_input = MarchInput {
-        step: COARSE * step,
-        start: input.start.clone(),
-        bounds: Vec::new(),
-        bbox: None,
-        max_triangles: Some(COARSE_LIMIT),
-        tolerance: None,
-        uniform: false,
-    };
-    // Only the survey's area and sections count: no quality stage, no regrading.
-    let coarse_settings = MarchSettings {
-        quality_angle: 0.0,
-        sizing: SizingSettings {
-            regrade_share: 1.0,
-            ..settings.sizing
-        },
-        ..*settings
-    };
-    // At `COARSE` steps, and where the surface has features too small for that (the survey
-    // fails), at half of it.
-    let (coarse, coarse_step) =
-        match march::march_verified(&mut s, None, &coarse_input, &coarse_settings, None) {
-            Ok(m) => (m.mesh, coarse_input.step),
-            Err(_) => {
-                let finer = MarchInput {
-                    step: 0.5 * COARSE * step,
-                    ..coarse_input
-                };
-                let m = march::march_verified(&mut s, None, &finer, &coarse_settings, None)
-                    .map_err(NoCut::Coarse)?;
-                (m.mesh, finer.step)
-            }
-        };
-    let area: f64 = coarse
-        .triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|k| coarse.vertices[k as usize]);
-            0.5 * (b - a).cross(c - a).length()
-        })
-        .sum();
-    let triangle = 0.25 * 3f64.sqrt() * step * step;
-    let estimate = area / triangle;
-    // A NaN area (a survey vertex not finite) cuts nothing either.
-    if estimate.is_nan() || estimate <= settings.pieces_above as f64 {
+    let survey = survey(&mut s, input, settings)?;
+    let Some(mut n) = survey.slabs(settings) else {
         return Ok(None);
-    }
-    let topo = topology(&coarse);
+    };
+    let topo = topology(&survey.mesh);
     if !topo.is_closed_and_oriented() || topo.components != 1 {
         return Err(NoCut::CoarseOpen);
     }
-    let mut n = ((estimate / settings.pieces_above.max(1) as f64).ceil() as usize)
-        .next_power_of_two()
-        .clamp(2, settings.pieces_max.max(2) as usize);
-    let (lo, hi) = coarse.vertices.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), &v| (lo.min(v), hi.max(v)),
-    );
-    let extent = hi - lo;
-    let mut axes = [0usize, 1, 2];
-    axes.sort_by(|&a, &b| extent[b].total_cmp(&extent[a]));
+    let (lo, extent, axes) = survey.axes();
     let tolerance = input.tolerance.unwrap_or(settings.tolerance * step);
     let sizing = Sizing::of_mesh(step, tolerance, false, settings.sizing);
     let mut last = NoCut::Fork;
     // Where no axis takes n - 1 planes (one meets the surface at a grazing angle wherever it
     // is shifted: more planes, more such places), half as many slabs, down to two.
     loop {
-        if let Some(cuts) = planes(
-            &mut s,
-            &coarse,
-            coarse_step,
-            n,
-            &axes,
-            lo,
-            extent,
-            step,
-            settings,
-            &sizing,
-            &mut last,
-        ) {
-            let (axis, cuts) = cuts;
-            // Each slab's triangles as the survey's area in it estimates them (a triangle in
-            // the slab of its centroid).
-            let mut estimates = vec![0.0; cuts.len() + 1];
-            for t in &coarse.triangles {
-                let [a, b, c] = t.map(|k| coarse.vertices[k as usize]);
-                let centre = (a[axis] + b[axis] + c[axis]) / 3.0;
-                let slab = cuts.partition_point(|cut| cut.at < centre);
-                estimates[slab] += 0.5 * (b - a).cross(c - a).length() / triangle;
-            }
+        let found = planes(n, &axes, lo, extent, &mut last, |axis, at| {
+            cut(
+                &mut s,
+                &survey.mesh,
+                survey.step,
+                axis,
+                at,
+                step,
+                settings,
+                &sizing,
+            )
+        });
+        if let Some((axis, cuts)) = found {
+            let at: Vec<f64> = cuts.iter().map(|c| c.at).collect();
             return Ok(Some(Plan {
                 axis,
+                estimates: survey.estimates(axis, &at),
                 cuts,
                 chi: topo.euler_characteristic,
-                estimates,
             }));
         }
         if n <= 2 {
@@ -339,25 +287,124 @@ fn plan(
     }
 }
 
-/// The n - 1 planes of n slabs across the first of `axes` where every plane can be cut (each
-/// at its place or shifted), with their loops; None (and the last refusal in `last`) where
-/// no axis takes them all.
-// The survey (oracle, mesh, its step and extent), the slabs, and what the loops are sampled
-// for.
-#[allow(clippy::too_many_arguments)]
-fn planes(
+/// The coarse survey of a component (docs/pieces.md, *When a component is cut*).
+pub(super) struct Survey {
+    pub mesh: Mesh,
+    /// The step it was marched at.
+    pub step: f64,
+    /// The area of an equilateral triangle of the (fine) step.
+    pub triangle: f64,
+    /// The triangles the fine march will make, as the survey's area estimates them.
+    pub estimate: f64,
+}
+
+impl Survey {
+    /// How many slabs to cut the component into: None below `pieces_above`, else
+    /// ⌈estimate / piece_triangles⌉ rounded up to a power of two, 2 ..= `pieces_max`.
+    pub fn slabs(&self, settings: &MarchSettings) -> Option<usize> {
+        // A NaN area (a survey vertex not finite) cuts nothing either.
+        if self.estimate.is_nan() || self.estimate <= settings.pieces_above as f64 {
+            return None;
+        }
+        Some(
+            ((self.estimate / settings.piece_triangles.max(1) as f64).ceil() as usize)
+                .next_power_of_two()
+                .clamp(2, settings.pieces_max.max(2) as usize),
+        )
+    }
+
+    /// The survey's lowest corner, extent, and the axes from the longest extent.
+    pub fn axes(&self) -> (DVec3, DVec3, [usize; 3]) {
+        let (lo, hi) = self.mesh.vertices.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &v| (lo.min(v), hi.max(v)),
+        );
+        let extent = hi - lo;
+        let mut axes = [0usize, 1, 2];
+        axes.sort_by(|&a, &b| extent[b].total_cmp(&extent[a]));
+        (lo, extent, axes)
+    }
+
+    /// Each slab's triangles as the survey's area in it estimates them (a triangle in the
+    /// slab of its centroid), for the slabs between the planes at `planes` across `axis`.
+    pub fn estimates(&self, axis: usize, planes: &[f64]) -> Vec<f64> {
+        let mesh = &self.mesh;
+        let mut estimates = vec![0.0; planes.len() + 1];
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
+            let centre = (a[axis] + b[axis] + c[axis]) / 3.0;
+            let slab = planes.partition_point(|&at| at < centre);
+            estimates[slab] += 0.5 * (b - a).cross(c - a).length() / self.triangle;
+        }
+        estimates
+    }
+}
+
+/// The coarse march from the component's start (in its box, where it has one) at `COARSE`
+/// steps, and where the surface has features too small for that (the survey fails), at half
+/// of it; no quality stage, no regrading: only its area, extent and sections count.
+pub(super) fn survey(
     s: &mut dyn Surface,
-    coarse: &Mesh,
-    coarse_step: f64,
+    input: &MarchInput,
+    settings: &MarchSettings,
+) -> Result<Survey, NoCut> {
+    let coarse_input = MarchInput {
+        step: COARSE * input.step,
+        start: input.start.clone(),
+        bounds: Vec::new(),
+        bbox: input.bbox,
+        max_triangles: Some(COARSE_LIMIT),
+        tolerance: None,
+        uniform: false,
+    };
+    let coarse_settings = MarchSettings {
+        quality_angle: 0.0,
+        sizing: SizingSettings {
+            regrade_share: 1.0,
+            ..settings.sizing
+        },
+        ..*settings
+    };
+    let (mesh, step) = match march::march_verified(s, None, &coarse_input, &coarse_settings, None) {
+        Ok(m) => (m.mesh, coarse_input.step),
+        Err(_) => {
+            let finer = MarchInput {
+                step: 0.5 * COARSE * input.step,
+                ..coarse_input
+            };
+            let m = march::march_verified(s, None, &finer, &coarse_settings, None)
+                .map_err(NoCut::Coarse)?;
+            (m.mesh, finer.step)
+        }
+    };
+    let area: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum();
+    let triangle = 0.25 * 3f64.sqrt() * input.step * input.step;
+    Ok(Survey {
+        mesh,
+        step,
+        triangle,
+        estimate: area / triangle,
+    })
+}
+
+/// The n - 1 planes of n slabs across the first of `axes` where `cut` takes every plane
+/// (each at its place or shifted), with what it made of each; None (and the last refusal in
+/// `last`) where no axis takes them all.
+pub(super) fn planes<T>(
     n: usize,
     axes: &[usize; 3],
     lo: DVec3,
     extent: DVec3,
-    step: f64,
-    settings: &MarchSettings,
-    sizing: &Sizing,
     last: &mut NoCut,
-) -> Option<(usize, Vec<Cut>)> {
+    mut cut: impl FnMut(usize, f64) -> Result<T, NoCut>,
+) -> Option<(usize, Vec<Placed<T>>)> {
     'axes: for &axis in axes {
         let width = extent[axis] / n as f64;
         let mut cuts = Vec::with_capacity(n - 1);
@@ -366,9 +413,9 @@ fn planes(
             let mut found = None;
             for shift in SHIFTS {
                 let at = base + shift * width;
-                match cut(s, coarse, coarse_step, axis, at, step, settings, sizing) {
+                match cut(axis, at) {
                     Ok(loops) => {
-                        found = Some(Cut { at, loops });
+                        found = Some(Placed { at, loops });
                         break;
                     }
                     Err(e) => *last = e,
@@ -466,7 +513,7 @@ fn cut(
 }
 
 /// The local step at a point on the surface.
-fn local_step(s: &mut dyn Surface, sizing: &Sizing, p: DVec3) -> f64 {
+pub(super) fn local_step(s: &mut dyn Surface, sizing: &Sizing, p: DVec3) -> f64 {
     let normal = s.value_gradient(p).gradient.normalize_or_zero();
     if normal == DVec3::ZERO {
         return 0.0;
@@ -548,21 +595,13 @@ fn section(mesh: &Mesh, axis: usize, at: f64) -> Option<Vec<Vec<DVec3>>> {
     Some(loops)
 }
 
-/// Marches the slabs between the cuts on the rayon pool and joins them (module doc 3, 4).
-fn march_pieces(
-    fork: &Fork<'_>,
-    input: &MarchInput,
-    settings: &MarchSettings,
-    plan: &Plan,
-    progress: Option<&AtomicU64>,
-) -> Result<Pieced, NoCut> {
-    let (axis, cuts, chi) = (plan.axis, &plan.cuts[..], plan.chi);
+/// The slabs of a component that is not in a box: between the cuts, the upper plane's
+/// loops as traced (the slab below them), the lower plane's reversed (module doc 3).
+fn slabs(input: &MarchInput, settings: &MarchSettings, plan: &Plan) -> Slabs {
+    let cuts = &plan.cuts;
     let n = cuts.len() + 1;
-    let limit = input.max_triangles.unwrap_or(settings.max_triangles);
-    let inputs: Vec<MarchInput> = (0..n)
+    let polygons = (0..n)
         .map(|k| {
-            // The upper plane's loops as traced (this slab below them), the lower plane's
-            // reversed.
             let mut loops: Vec<Vec<DVec3>> = Vec::new();
             if let Some(c) = cuts.get(k) {
                 loops.extend(c.loops.iter().cloned());
@@ -574,11 +613,41 @@ fn march_pieces(
                     r
                 }));
             }
+            loops
+        })
+        .collect();
+    Slabs {
+        axis: plan.axis,
+        planes: cuts.iter().map(|c| c.at).collect(),
+        inputs: slab_inputs(input, settings, polygons, &plan.estimates),
+        shared: cuts
+            .iter()
+            .flat_map(|c| c.loops.iter().flatten().copied())
+            .collect(),
+        cuts: cuts.iter().flat_map(|c| c.loops.iter().cloned()).collect(),
+        chi: plan.chi,
+        boundary_loops: 0,
+        bbox: None,
+    }
+}
+
+/// Each slab's march from its polygons, the first as front and the others as bounds, with
+/// its share of triangles (`SLAB_SHARE`): a slab that marches far beyond it (its front got
+/// past a cut it should have stopped at, and goes round the surface again) is stopped early,
+/// and the component is then marched whole, as for any failed piece.
+pub(super) fn slab_inputs(
+    input: &MarchInput,
+    settings: &MarchSettings,
+    polygons: Vec<Vec<Vec<DVec3>>>,
+    estimates: &[f64],
+) -> Vec<MarchInput> {
+    let limit = input.max_triangles.unwrap_or(settings.max_triangles);
+    polygons
+        .into_iter()
+        .zip(estimates)
+        .map(|(mut loops, &estimate)| {
             let front = loops.remove(0);
-            // A slab that marches far beyond its share (its front got past a cut it should
-            // have stopped at, and goes round the surface again) is stopped early: the
-            // component is then marched whole, as for any failed piece.
-            let share = (SLAB_SHARE * plan.estimates[k]) as u64 + SLAB_SHARE_MIN;
+            let share = (SLAB_SHARE * estimate) as u64 + SLAB_SHARE_MIN;
             MarchInput {
                 step: input.step,
                 start: Start::Front(front),
@@ -589,8 +658,42 @@ fn march_pieces(
                 uniform: false,
             }
         })
-        .collect();
-    let marched: Vec<Result<Marched, NoCut>> = inputs
+        .collect()
+}
+
+/// Slabs to march and what their join is held to.
+pub(super) struct Slabs {
+    /// The axis cut across and the planes' positions along it, increasing.
+    pub axis: usize,
+    pub planes: Vec<f64>,
+    /// Each slab's march.
+    pub inputs: Vec<MarchInput>,
+    /// The polygon vertices two slabs may share (bit for bit) and where the join's angle
+    /// check looks: the cut polygons', and in a box the border polygons' too.
+    pub shared: Vec<DVec3>,
+    /// The cut polygons, for `Pieced::cuts`.
+    pub cuts: Vec<Vec<DVec3>>,
+    /// The joined mesh's Euler characteristic and boundary loops: the survey's.
+    pub chi: i64,
+    pub boundary_loops: usize,
+    /// The box every vertex lies in, for a component in one: its boundary edges lie on the
+    /// box's faces.
+    pub bbox: Option<(DVec3, DVec3)>,
+}
+
+/// Marches the slabs on the rayon pool and joins them (module doc 3, 4).
+fn march_slabs(
+    fork: &Fork<'_>,
+    input: &MarchInput,
+    settings: &MarchSettings,
+    slabs: &Slabs,
+    progress: Option<&AtomicU64>,
+) -> Result<Pieced, NoCut> {
+    let (axis, planes, chi) = (slabs.axis, &slabs.planes[..], slabs.chi);
+    let n = planes.len() + 1;
+    let limit = input.max_triangles.unwrap_or(settings.max_triangles);
+    let marched: Vec<Result<Marched, NoCut>> = slabs
+        .inputs
         .par_iter()
         .enumerate()
         .map(|(piece, inp)| {
@@ -603,14 +706,17 @@ fn march_pieces(
     let joining = std::time::Instant::now();
     let margin = SLAB_MARGIN * input.step;
     for (piece, m) in marched.iter().enumerate() {
-        let below = piece.checked_sub(1).map(|k| cuts[k].at - margin);
-        let above = cuts.get(piece).map(|c| c.at + margin);
-        if let Some(&at) = m
-            .mesh
-            .vertices
-            .iter()
-            .find(|v| below.is_some_and(|b| v[axis] < b) || above.is_some_and(|a| v[axis] > a))
-        {
+        let below = piece.checked_sub(1).map(|k| planes[k] - margin);
+        let above = planes.get(piece).map(|&at| at + margin);
+        let outside = |v: &DVec3| {
+            below.is_some_and(|b| v[axis] < b)
+                || above.is_some_and(|a| v[axis] > a)
+                || slabs.bbox.is_some_and(|(lo, hi)| {
+                    v.cmplt(lo - DVec3::splat(margin)).any()
+                        || v.cmpgt(hi + DVec3::splat(margin)).any()
+                })
+        };
+        if let Some(&at) = m.mesh.vertices.iter().find(|v| outside(v)) {
             return Err(NoCut::Slab { piece, at });
         }
     }
@@ -622,20 +728,38 @@ fn march_pieces(
         .iter_mut()
         .map(|m| std::mem::take(&mut m.mesh))
         .collect();
-    let (mesh, on) = join(&parts, cuts);
+    // Only the polygons' vertices looked up (`merge_at`): the only ones two slabs share, bit
+    // for bit, since a polygon vertex is a mesh vertex with its coordinates (`merge`, which
+    // hashes every vertex, took a fifth of a second on the fine sphere in one thread).
+    let (mesh, on) = merge_at(&parts, Some(&slabs.shared));
     // The topology and the checks after it need only the mesh: side by side on the pool.
-    let planes: Vec<f64> = cuts.iter().map(|c| c.at).collect();
     let (topo, (crossing, shapes)) = rayon::join(
         || topology(&mesh),
         || {
-            let crossing = !band(&mesh, axis, &planes, BAND * input.step).is_empty();
+            let crossing = !band(&mesh, axis, planes, BAND * input.step).is_empty();
             (crossing, cut_shapes(&mesh, &on))
         },
     );
-    if !topo.is_closed_and_oriented() {
+    let on_the_box = |k: u32| {
+        let v = mesh.vertices[k as usize];
+        slabs
+            .bbox
+            .is_some_and(|(lo, hi)| v.cmpeq(lo).any() || v.cmpeq(hi).any())
+    };
+    if !topo.non_manifold_edges.is_empty()
+        || !topo.misoriented_edges.is_empty()
+        || topo.degenerate_triangles > 0
+        || topo
+            .boundary_edges
+            .iter()
+            .any(|&[a, b]| !(on_the_box(a) && on_the_box(b)))
+    {
         return Err(NoCut::Joined(
-            "an edge is open, in more than two triangles or misoriented",
+            "an edge is open away from the box, in more than two triangles or misoriented",
         ));
+    }
+    if topo.boundary_loops.len() != slabs.boundary_loops {
+        return Err(NoCut::Joined("the boundary loops differ from the survey's"));
     }
     if topo.components != 1 {
         return Err(NoCut::Joined("more than one component"));
@@ -690,22 +814,10 @@ fn march_pieces(
             peak_triangles: marched.iter().map(|m| m.peak_triangles).sum(),
         },
         pieces: n,
-        cuts: cuts.iter().flat_map(|c| c.loops.iter().cloned()).collect(),
-        planes: Some((axis, planes)),
+        cuts: slabs.cuts.clone(),
+        planes: Some((axis, planes.to_vec())),
         topology: Some(topo),
     })
-}
-
-/// The slabs as one mesh (`creases::merge_at`, looking up only the cut polygons' vertices:
-/// the only ones two slabs share, bit for bit, since a polygon vertex is a mesh vertex with
-/// its coordinates), and which of its vertices are cut polygon vertices. `merge`, which
-/// hashes every vertex, took a fifth of a second on the fine sphere in one thread.
-fn join(parts: &[Mesh], cuts: &[Cut]) -> (Mesh, Vec<bool>) {
-    let shared: Vec<DVec3> = cuts
-        .iter()
-        .flat_map(|c| c.loops.iter().flatten().copied())
-        .collect();
-    merge_at(parts, Some(&shared))
 }
 
 /// What the join asks of the triangles' shapes.
@@ -826,7 +938,11 @@ mod tests {
                 loops: vec![upper.clone()],
             },
         ];
-        let (joined, on) = join(&parts, &cuts);
+        let shared: Vec<DVec3> = cuts
+            .iter()
+            .flat_map(|c| c.loops.iter().flatten().copied())
+            .collect();
+        let (joined, on) = merge_at(&parts, Some(&shared));
         let merged = merge(&parts);
         let bits = |vs: &[DVec3]| -> Vec<[u64; 3]> {
             vs.iter().map(|v| v.to_array().map(f64::to_bits)).collect()
