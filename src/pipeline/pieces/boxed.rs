@@ -3,17 +3,20 @@
 //! fronts reach them, so two slabs would not share them. Here every curve the slabs end at is
 //! traced first: the cut curves (surface ∩ plane, clipped to the box) and the border curves
 //! (surface ∩ box face, clipped to each slab), meeting at *corners* — points on two planes
-//! (a cut and a face, or two faces along a box edge), found once by Newton along the line
-//! of the two and shared bit for bit by every curve that ends there. Each slab's curves
-//! chain into closed polygons, which it marches as a component from a start point's slab
-//! does (the first as front, the rest as bounds), with no box: the polygons bound it. The
-//! join holds the mesh to the survey's boundary loops and Euler characteristic, every
-//! boundary edge on the box's faces.
+//! (a cut and a face, or two faces along a box edge), found by Newton along the line of the
+//! two and again from a grid point, so that every curve that ends there finds the same bits
+//! (the planes and the slabs are traced on the pool's threads, each on a fresh oracle). Each
+//! slab's curves chain into closed polygons, which it marches as a component from a start
+//! point's slab does (the first as front, the rest as bounds), in its part of the box two
+//! steps larger: the polygons bound it. The join holds the mesh to the survey's boundary
+//! loops and Euler characteristic, every boundary edge on the box's faces.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::{
-    CROSS_SINE, MIN_LOOP, NoCut, Placed, Slabs, Survey, local_step, planes, slab_inputs, survey,
+    CROSS_SINE, MIN_LOOP, NoCut, Placed, Slabs, Survey, in_parallel, local_step, planes,
+    slab_inputs, survey,
 };
 use crate::march::{MarchInput, MarchSettings};
 use crate::mesh::Mesh;
@@ -23,13 +26,6 @@ use crate::solve::tolerance::CurveTolerance;
 use crate::surface::{Fork, NativeSurface, Surface, ValueGrad};
 use crate::survey::sizing::Sizing;
 
-/// Two corners on the same line closer than this (× step) are one: the second curve to end
-/// there takes the first's point.
-const SAME_CORNER: f64 = 1e-6;
-/// Newton along a corner's line stops at a step below this (× step).
-const CORNER_STEP: f64 = 1e-13;
-const CORNER_ITERATIONS: usize = 60;
-
 /// A curve the slabs end at: its points in order (for an open one, from corner to corner).
 #[derive(Clone, Debug)]
 struct Piece {
@@ -37,32 +33,32 @@ struct Piece {
     closed: bool,
 }
 
-/// The corners found so far, each on the line where two coordinates are fixed.
-#[derive(Default)]
-struct Corners {
-    found: Vec<([(usize, u64); 2], DVec3)>,
-}
+/// Newton along a corner's line stops at a step below this (× step).
+const CORNER_STEP: f64 = 1e-13;
+const CORNER_ITERATIONS: usize = 60;
+/// A corner's Newton starts again from its first answer rounded to this fraction (a power of
+/// two, × the step's power of two): curves that reach a corner from either side find the
+/// same bits without asking one another (unless their first answers straddle a grid line,
+/// about once in 10⁹; then the polygons do not chain and the component is marched whole).
+const CORNER_GRID: i32 = 24;
 
-impl Corners {
-    /// The point of the surface on the line `fixed` (two coordinates) nearest `guess`, by
-    /// Newton along the line's free coordinate; the corner found before on that line where
-    /// there is one within `SAME_CORNER` steps. None where Newton fails or leaves the box.
-    fn at(
-        &mut self,
-        s: &mut dyn Surface,
-        fixed: [(usize, f64); 2],
-        guess: DVec3,
-        step: f64,
-        bbox: (DVec3, DVec3),
-    ) -> Option<DVec3> {
-        let mut fixed = fixed;
-        fixed.sort_by_key(|f| f.0);
-        let free = 3 - fixed[0].0 - fixed[1].0;
-        let mut p = guess;
-        for (axis, value) in fixed {
-            p[axis] = value;
-        }
-        let mut converged = false;
+/// The point of the surface on the line where the two coordinates `fixed` are held, nearest
+/// `guess`: Newton along the line's free coordinate, then again from that rounded to a grid
+/// (`CORNER_GRID`), so that every curve ending there gets the same point. None where Newton
+/// fails or leaves the box.
+fn corner(
+    s: &mut dyn Surface,
+    fixed: [(usize, f64); 2],
+    guess: DVec3,
+    step: f64,
+    bbox: (DVec3, DVec3),
+) -> Option<DVec3> {
+    let free = 3 - fixed[0].0 - fixed[1].0;
+    let mut p = guess;
+    for (axis, value) in fixed {
+        p[axis] = value;
+    }
+    let newton = |s: &mut dyn Surface, mut p: DVec3| -> Option<DVec3> {
         for _ in 0..CORNER_ITERATIONS {
             let vg = s.value_gradient(p);
             let d = vg.gradient[free];
@@ -72,25 +68,17 @@ impl Corners {
             let du = vg.value / d;
             p[free] -= du;
             if du.abs() <= CORNER_STEP * step {
-                converged = true;
-                break;
+                return Some(p);
             }
         }
-        let (lo, hi) = bbox;
-        if !converged || !(lo[free]..=hi[free]).contains(&p[free]) {
-            return None;
-        }
-        let key = fixed.map(|(axis, value)| (axis, value.to_bits()));
-        if let Some((_, q)) = self
-            .found
-            .iter()
-            .find(|(k, q)| *k == key && (q[free] - p[free]).abs() <= SAME_CORNER * step)
-        {
-            return Some(*q);
-        }
-        self.found.push((key, p));
-        Some(p)
-    }
+        None
+    };
+    let mut p = newton(s, p)?;
+    let grid = 2f64.powi(step.log2().floor() as i32 - CORNER_GRID);
+    p[free] = (p[free] / grid).round() * grid;
+    let p = newton(s, p)?;
+    let (lo, hi) = bbox;
+    (lo[free]..=hi[free]).contains(&p[free]).then_some(p)
 }
 
 /// The plane `p[axis] = at` as a surface.
@@ -143,32 +131,13 @@ pub(super) fn plan(
     let sizing = Sizing::of_mesh(step, tolerance, false, settings.sizing);
     let mut last = NoCut::Fork;
     loop {
-        let mut corners = Corners::default();
-        let found = planes(n, &axes, lo, extent, &mut last, |axis, at| {
-            cut(
-                &mut s,
-                &survey,
-                axis,
-                at,
-                step,
-                settings,
-                &sizing,
-                bbox,
-                &mut corners,
-            )
+        let found = planes(n, &axes, lo, extent, &mut last, |axis, bases, width| {
+            in_parallel(fork, bases, width, |s, at| {
+                cut(s, &survey, axis, at, step, settings, &sizing, bbox)
+            })
         });
         if let Some((axis, cuts)) = found {
-            match slabs(
-                &mut s,
-                &survey,
-                axis,
-                &cuts,
-                input,
-                settings,
-                &sizing,
-                bbox,
-                &mut corners,
-            ) {
+            match slabs(fork, &survey, axis, &cuts, input, settings, &sizing, bbox) {
                 Ok(mut slabs) => {
                     slabs.chi = topo.euler_characteristic;
                     slabs.boundary_loops = topo.boundary_loops.len();
@@ -187,7 +156,7 @@ pub(super) fn plan(
 /// The curves where the plane `p[axis] = at` cuts the surface in the box, traced from the
 /// survey's section and checked as for a component out of a box, each open one from corner
 /// to corner, oriented along ∇f × e_axis (the side below the plane on its left).
-// The oracle, the survey, the plane, what the curves are sampled for, the box and corners.
+// The oracle, the survey, the plane, what the curves are sampled for, the box.
 #[allow(clippy::too_many_arguments)]
 fn cut(
     s: &mut dyn Surface,
@@ -198,7 +167,6 @@ fn cut(
     settings: &MarchSettings,
     sizing: &Sizing,
     bbox: (DVec3, DVec3),
-    corners: &mut Corners,
 ) -> Result<Vec<Piece>, NoCut> {
     let refuse = |why| NoCut::Plane { axis, at, why };
     let sections = section(&survey.mesh, axis, at);
@@ -219,7 +187,6 @@ fn cut(
             sizing,
             bbox,
             (axis, at),
-            corners,
         )
         .ok_or(refuse("a cut curve could not be traced to the box"))?;
         for (i, &p) in piece.points.iter().enumerate() {
@@ -266,7 +233,7 @@ fn cut(
 /// with both ends moved onto corners (the plane and the wall of `bbox` it left by). The
 /// points keep the plane's coordinate exactly. None where the trace fails.
 // The oracle, the plane, where to start, what the curve is sampled for, the box, the plane's
-// coordinate, the corners.
+// coordinate.
 #[allow(clippy::too_many_arguments)]
 fn trace(
     s: &mut dyn Surface,
@@ -277,7 +244,6 @@ fn trace(
     sizing: &Sizing,
     bbox: (DVec3, DVec3),
     on: (usize, f64),
-    corners: &mut Corners,
 ) -> Option<Piece> {
     let tol = CurveTolerance::default();
     // The plane's own coordinate a little inside the box's walls, so that the trace is
@@ -312,7 +278,7 @@ fn trace(
         let last = points.len() - 1;
         for i in [0, last] {
             let wall = wall_of(points[i], inner, on.0)?;
-            points[i] = corners.at(s, [on, wall], points[i], step, bbox)?;
+            points[i] = corner(s, [on, wall], points[i], step, bbox)?;
         }
         if points[0] == points[last] || points.windows(2).any(|w| w[0] == w[1]) {
             return None;
@@ -397,12 +363,12 @@ fn section(mesh: &Mesh, axis: usize, at: f64) -> Vec<(Vec<DVec3>, bool)> {
 }
 
 /// The slabs between the cuts: each slab's border curves on the box's faces, chained with
-/// its cut curves into closed polygons.
-// The oracle, the survey, the cuts, the block, what the curves are sampled for, the box and
-// the corners.
+/// its cut curves into closed polygons; the slabs on the pool's threads, each on a fresh
+/// oracle.
+// The oracles, the survey, the cuts, the block, what the curves are sampled for, the box.
 #[allow(clippy::too_many_arguments)]
 fn slabs(
-    s: &mut dyn Surface,
+    fork: &Fork<'_>,
     survey: &Survey,
     axis: usize,
     cuts: &[Placed<Vec<Piece>>],
@@ -410,126 +376,21 @@ fn slabs(
     settings: &MarchSettings,
     sizing: &Sizing,
     bbox: (DVec3, DVec3),
-    corners: &mut Corners,
 ) -> Result<Slabs, NoCut> {
     let step = input.step;
-    let n = cuts.len() + 1;
     let at: Vec<f64> = cuts.iter().map(|c| c.at).collect();
-    let mesh = &survey.mesh;
-    let topo = topology(mesh);
-    let mut polygons = Vec::with_capacity(n);
-    let mut shared = Vec::new();
-    for k in 0..n {
-        // The slab's box.
-        let mut slab = bbox;
-        if k > 0 {
-            slab.0[axis] = at[k - 1];
-        }
-        if k + 1 < n {
-            slab.1[axis] = at[k];
-        }
-        let mut pieces: Vec<Piece> = Vec::new();
-        if let Some(c) = cuts.get(k) {
-            pieces.extend(c.loops.iter().cloned());
-        }
-        if k > 0 {
-            pieces.extend(cuts[k - 1].loops.iter().map(|p| {
-                let mut r = p.clone();
-                r.points.reverse();
-                r
-            }));
-        }
-        // The border curves, from the survey's boundary edges on each face in the slab.
-        for face_axis in 0..3 {
-            for (side, wall) in [(-1.0, bbox.0[face_axis]), (1.0, bbox.1[face_axis])] {
-                if face_axis == axis && !(slab.0[axis]..=slab.1[axis]).contains(&wall) {
-                    continue;
-                }
-                let seeds = topo.boundary_edges.iter().filter_map(|&[a, b]| {
-                    let (p, q) = (mesh.vertices[a as usize], mesh.vertices[b as usize]);
-                    let mid = 0.5 * (p + q);
-                    // A face across the axis is the slab's whole; on a face along it, the
-                    // edges whose midpoints are strictly between the slab's planes.
-                    (p[face_axis] == wall
-                        && q[face_axis] == wall
-                        && (face_axis == axis
-                            || (mid[axis] > slab.0[axis] && mid[axis] < slab.1[axis])))
-                        .then_some(mid)
-                });
-                let mut traced: Vec<Piece> = Vec::new();
-                for seed in seeds.collect::<Vec<_>>() {
-                    // A seed on a curve already traced from another.
-                    let on_traced = traced.iter().any(|t| {
-                        t.points.windows(2).any(|w| {
-                            let (u, v) = (w[0], w[1]);
-                            (u + nearest_on_segment(seed, u, v) * (v - u)).distance(seed)
-                                <= 0.5 * survey.step
-                        })
-                    });
-                    if on_traced {
-                        continue;
-                    }
-                    let mut piece = trace(
-                        s,
-                        &mut plane(face_axis, wall),
-                        seed,
-                        step,
-                        settings,
-                        sizing,
-                        slab,
-                        (face_axis, wall),
-                        corners,
-                    )
-                    .ok_or(NoCut::Plane {
-                        axis,
-                        at: at.get(k).copied().unwrap_or(wall),
-                        why: "a border curve could not be traced",
-                    })?;
-                    // Traced along ∇f × e: the box's inside on its left on the upper face.
-                    if side < 0.0 {
-                        piece.points.reverse();
-                    }
-                    traced.push(piece);
-                }
-                pieces.extend(traced);
-            }
-        }
-        let loops = chain(pieces).ok_or(NoCut::Plane {
-            axis,
-            at: at.get(k).copied().unwrap_or(bbox.1[axis]),
-            why: "a slab's curves do not chain into closed polygons",
-        })?;
-        let (min, max) = (
-            settings.polygon_edge_min * step,
-            settings.polygon_edge_max * step,
-        );
-        for l in &loops {
-            for i in 0..l.len() {
-                let length = l[i].distance(l[(i + 1) % l.len()]);
-                if !(length >= min && length <= max) {
-                    return Err(NoCut::Plane {
-                        axis,
-                        at: at.get(k).copied().unwrap_or(bbox.1[axis]),
-                        why: "a slab's polygon has an edge too short or too long",
-                    });
-                }
-            }
-            shared.extend(l.iter().copied());
-        }
-        if crate::trace::enabled() {
-            for l in &loops {
-                let (lo, hi) = l.iter().fold(
-                    (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-                    |(lo, hi), &v| (lo.min(v), hi.max(v)),
-                );
-                eprintln!(
-                    "pieces: slab {k}: a polygon of {} vertices in {lo} .. {hi}",
-                    l.len()
-                );
-            }
-        }
-        polygons.push(loops);
-    }
+    let boundary = topology(&survey.mesh).boundary_edges;
+    let polygons: Vec<Result<Vec<Vec<DVec3>>, NoCut>> = (0..=cuts.len())
+        .into_par_iter()
+        .map(|k| {
+            let mut s = fork().ok_or(NoCut::Fork)?;
+            slab_polygons(
+                &mut *s, survey, &boundary, axis, cuts, k, step, settings, sizing, bbox,
+            )
+        })
+        .collect();
+    let polygons = polygons.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let mut shared: Vec<DVec3> = polygons.iter().flatten().flatten().copied().collect();
     shared.sort_by(|a, b| {
         a.to_array()
             .map(f64::to_bits)
@@ -542,13 +403,7 @@ fn slabs(
     // that got past them (a border curve the survey did not see) stops there, and the slab is
     // refused at once, rather than marching on round the surface to its share.
     for (k, inp) in inputs.iter_mut().enumerate() {
-        let mut slab = bbox;
-        if k > 0 {
-            slab.0[axis] = at[k - 1];
-        }
-        if k < at.len() {
-            slab.1[axis] = at[k];
-        }
+        let slab = slab_box(bbox, axis, &at, k);
         inp.bbox = Some((
             slab.0 - DVec3::splat(2.0 * step),
             slab.1 + DVec3::splat(2.0 * step),
@@ -567,6 +422,136 @@ fn slabs(
         boundary_loops: 0,
         bbox: Some(bbox),
     })
+}
+
+/// Slab k's part of the box: between the planes `at` across `axis`.
+fn slab_box(bbox: (DVec3, DVec3), axis: usize, at: &[f64], k: usize) -> (DVec3, DVec3) {
+    let mut slab = bbox;
+    if k > 0 {
+        slab.0[axis] = at[k - 1];
+    }
+    if k < at.len() {
+        slab.1[axis] = at[k];
+    }
+    slab
+}
+
+/// Slab k's closed polygons: its cut curves (the upper plane's as traced, the lower's
+/// reversed) and its border curves, traced from the survey's `boundary` edges on each face in
+/// the slab (one trace a run of them), chained end to start.
+// The oracle, the survey and its boundary, the cuts, the slab, what the curves are sampled
+// for, the box.
+#[allow(clippy::too_many_arguments)]
+fn slab_polygons(
+    s: &mut dyn Surface,
+    survey: &Survey,
+    boundary: &[[u32; 2]],
+    axis: usize,
+    cuts: &[Placed<Vec<Piece>>],
+    k: usize,
+    step: f64,
+    settings: &MarchSettings,
+    sizing: &Sizing,
+    bbox: (DVec3, DVec3),
+) -> Result<Vec<Vec<DVec3>>, NoCut> {
+    let at: Vec<f64> = cuts.iter().map(|c| c.at).collect();
+    let place = at.get(k).copied().unwrap_or(bbox.1[axis]);
+    let refuse = |why| NoCut::Plane {
+        axis,
+        at: place,
+        why,
+    };
+    let mesh = &survey.mesh;
+    let slab = slab_box(bbox, axis, &at, k);
+    let mut pieces: Vec<Piece> = Vec::new();
+    if let Some(c) = cuts.get(k) {
+        pieces.extend(c.loops.iter().cloned());
+    }
+    if k > 0 {
+        pieces.extend(cuts[k - 1].loops.iter().map(|p| {
+            let mut r = p.clone();
+            r.points.reverse();
+            r
+        }));
+    }
+    for face_axis in 0..3 {
+        for (side, wall) in [(-1.0, bbox.0[face_axis]), (1.0, bbox.1[face_axis])] {
+            if face_axis == axis && !(slab.0[axis]..=slab.1[axis]).contains(&wall) {
+                continue;
+            }
+            // A face across the axis is the slab's whole; on a face along it, the edges
+            // whose midpoints are strictly between the slab's planes.
+            let seeds: Vec<DVec3> = boundary
+                .iter()
+                .filter_map(|&[a, b]| {
+                    let (p, q) = (mesh.vertices[a as usize], mesh.vertices[b as usize]);
+                    let mid = 0.5 * (p + q);
+                    (p[face_axis] == wall
+                        && q[face_axis] == wall
+                        && (face_axis == axis
+                            || (mid[axis] > slab.0[axis] && mid[axis] < slab.1[axis])))
+                        .then_some(mid)
+                })
+                .collect();
+            let mut traced: Vec<Piece> = Vec::new();
+            for seed in seeds {
+                // A seed on a curve already traced from another.
+                let on_traced = traced.iter().any(|t| {
+                    t.points.windows(2).any(|w| {
+                        let (u, v) = (w[0], w[1]);
+                        (u + nearest_on_segment(seed, u, v) * (v - u)).distance(seed)
+                            <= 0.5 * survey.step
+                    })
+                });
+                if on_traced {
+                    continue;
+                }
+                let mut piece = trace(
+                    s,
+                    &mut plane(face_axis, wall),
+                    seed,
+                    step,
+                    settings,
+                    sizing,
+                    slab,
+                    (face_axis, wall),
+                )
+                .ok_or(refuse("a border curve could not be traced"))?;
+                // Traced along ∇f × e: the box's inside on its left on the upper face.
+                if side < 0.0 {
+                    piece.points.reverse();
+                }
+                traced.push(piece);
+            }
+            pieces.extend(traced);
+        }
+    }
+    let loops = chain(pieces).ok_or(refuse("a slab's curves do not chain into closed polygons"))?;
+    let (min, max) = (
+        settings.polygon_edge_min * step,
+        settings.polygon_edge_max * step,
+    );
+    for l in &loops {
+        for i in 0..l.len() {
+            let length = l[i].distance(l[(i + 1) % l.len()]);
+            if !(length >= min && length <= max) {
+                return Err(refuse("a slab's polygon has an edge too short or too long"));
+            }
+        }
+    }
+    if crate::trace::enabled() {
+        for l in &loops {
+            let (lo, hi) = l.iter().fold(
+                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                |(lo, hi), &v| (lo.min(v), hi.max(v)),
+            );
+            eprintln!(
+                "pieces: slab {k}: a polygon of {} vertices in {lo} .. {hi}",
+                l.len()
+            );
+        }
+    }
+    Ok(loops)
 }
 
 /// The pieces chained into closed polygons: a closed piece is one; an open one goes on with

@@ -259,17 +259,19 @@ fn plan(
     // Where no axis takes n - 1 planes (one meets the surface at a grazing angle wherever it
     // is shifted: more planes, more such places), half as many slabs, down to two.
     loop {
-        let found = planes(n, &axes, lo, extent, &mut last, |axis, at| {
-            cut(
-                &mut s,
-                &survey.mesh,
-                survey.step,
-                axis,
-                at,
-                step,
-                settings,
-                &sizing,
-            )
+        let found = planes(n, &axes, lo, extent, &mut last, |axis, bases, width| {
+            in_parallel(fork, bases, width, |s, at| {
+                cut(
+                    s,
+                    &survey.mesh,
+                    survey.step,
+                    axis,
+                    at,
+                    step,
+                    settings,
+                    &sizing,
+                )
+            })
         });
         if let Some((axis, cuts)) = found {
             let at: Vec<f64> = cuts.iter().map(|c| c.at).collect();
@@ -394,41 +396,64 @@ pub(super) fn survey(
     })
 }
 
-/// The n - 1 planes of n slabs across the first of `axes` where `cut` takes every plane
-/// (each at its place or shifted), with what it made of each; None (and the last refusal in
-/// `last`) where no axis takes them all.
+/// The n - 1 planes of n slabs across the first of `axes` where `place` takes them all (it
+/// gets the axis, the planes' places and the slabs' width, and cuts each plane at its place
+/// or `shifted`), with what it made of each; None (and why the last axis failed in `last`)
+/// where no axis takes them.
 pub(super) fn planes<T>(
     n: usize,
     axes: &[usize; 3],
     lo: DVec3,
     extent: DVec3,
     last: &mut NoCut,
-    mut cut: impl FnMut(usize, f64) -> Result<T, NoCut>,
+    mut place: impl FnMut(usize, &[f64], f64) -> Result<Vec<Placed<T>>, NoCut>,
 ) -> Option<(usize, Vec<Placed<T>>)> {
-    'axes: for &axis in axes {
+    for &axis in axes {
         let width = extent[axis] / n as f64;
-        let mut cuts = Vec::with_capacity(n - 1);
-        for k in 1..n {
-            let base = lo[axis] + k as f64 * width;
-            let mut found = None;
-            for shift in SHIFTS {
-                let at = base + shift * width;
-                match cut(axis, at) {
-                    Ok(loops) => {
-                        found = Some(Placed { at, loops });
-                        break;
-                    }
-                    Err(e) => *last = e,
-                }
-            }
-            match found {
-                Some(c) => cuts.push(c),
-                None => continue 'axes,
-            }
+        let bases: Vec<f64> = (1..n).map(|k| lo[axis] + k as f64 * width).collect();
+        match place(axis, &bases, width) {
+            Ok(cuts) => return Some((axis, cuts)),
+            Err(e) => *last = e,
         }
-        return Some((axis, cuts));
     }
     None
+}
+
+/// The planes at `bases` (each `shifted`) on the pool's threads, each on a fresh oracle: what
+/// one finds does not depend on which thread ran it or what ran before. The first refusal in
+/// the planes' order where one is refused.
+pub(super) fn in_parallel<T: Send>(
+    fork: &Fork<'_>,
+    bases: &[f64],
+    width: f64,
+    cut: impl Fn(&mut dyn Surface, f64) -> Result<T, NoCut> + Sync,
+) -> Result<Vec<Placed<T>>, NoCut> {
+    let placed: Vec<Result<Placed<T>, NoCut>> = bases
+        .par_iter()
+        .map(|&base| {
+            let mut s = fork().ok_or(NoCut::Fork)?;
+            shifted(base, width, |at| cut(&mut *s, at))
+        })
+        .collect();
+    placed.into_iter().collect()
+}
+
+/// The plane at `base`, or moved by `SHIFTS` of the slabs' `width`, where `cut` first takes
+/// it; else the last refusal.
+pub(super) fn shifted<T>(
+    base: f64,
+    width: f64,
+    mut cut: impl FnMut(f64) -> Result<T, NoCut>,
+) -> Result<Placed<T>, NoCut> {
+    let mut last = NoCut::Fork;
+    for shift in SHIFTS {
+        let at = base + shift * width;
+        match cut(at) {
+            Ok(loops) => return Ok(Placed { at, loops }),
+            Err(e) => last = e,
+        }
+    }
+    Err(last)
 }
 
 /// The plane's cut loops, traced from the coarse section and checked as the module
