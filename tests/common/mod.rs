@@ -81,6 +81,17 @@ pub fn six_peak() -> Boxed {
     }))
 }
 
+/// The sum of the triangles' areas.
+pub fn area(m: &Mesh) -> f64 {
+    m.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| m.vertices[i as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum()
+}
+
 /// f1 f2 f3 − c of the paper's Sect. 3.6.
 pub fn three_cylinders(c: f64) -> Boxed {
     Box::new(NativeSurface(move |p: DVec3| {

@@ -485,15 +485,6 @@ fn boxed_slabs_mesh_what_the_whole_march_in_the_box_meshes() {
         piece_triangles: 500,
         ..MarchSettings::default()
     };
-    let area = |m: &surfc::mesh::Mesh| -> f64 {
-        m.triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|k| m.vertices[k as usize]);
-                0.5 * (b - a).cross(c - a).length()
-            })
-            .sum()
-    };
     let extent = |m: &surfc::mesh::Mesh| {
         m.vertices.iter().fold(
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
@@ -570,7 +561,7 @@ fn boxed_slabs_mesh_what_the_whole_march_in_the_box_meshes() {
                 ..Expect::default()
             },
         );
-        let (a, b) = (area(mesh), area(&whole));
+        let (a, b) = (common::area(mesh), common::area(&whole));
         let ((l1, h1), (l2, h2)) = (extent(mesh), extent(&whole));
         println!(
             "#{i} {} at step {step:.4}: {} slabs, {} triangles (whole {}), area {a:.5} ({b:.5}), χ {}, {} boundary loop(s)",

@@ -17,16 +17,6 @@ fn box_distance(lo: DVec3, hi: DVec3, p: DVec3) -> f64 {
     q.max(DVec3::ZERO).length() + q.max_element().min(0.0)
 }
 
-fn area(m: &surfc::Mesh) -> f64 {
-    m.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| m.vertices[i as usize]);
-            0.5 * (b - a).cross(c - a).length()
-        })
-        .sum()
-}
-
 /// The box [−½, ½]³ rounded by 0.2 at step 0.05: watertight with χ = 2, every vertex 0.2 from
 /// the box to 1e-9, and its area that of six unit faces, twelve quarter cylinders of radius
 /// 0.2 and length 1, and eight sphere octants of radius 0.2: 6 + 1.2π + 0.16π.
@@ -50,7 +40,7 @@ fn the_offset_of_a_box_is_the_rounded_box() {
         .fold(0.0, f64::max);
     assert!(worst <= 1e-9, "a vertex is {worst:e} off the offset");
     let exact = 6.0 + 1.2 * std::f64::consts::PI + 0.16 * std::f64::consts::PI;
-    let a = area(&m.mesh);
+    let a = common::area(&m.mesh);
     println!(
         "rounded box: {} triangles, area {a:.5} (exact {exact:.5}, {:+.3} %), vertices within {worst:.1e}, {took:?}",
         m.mesh.triangles.len(),

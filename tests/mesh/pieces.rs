@@ -25,6 +25,31 @@ fn run(
     settings: &MarchSettings,
     threads: usize,
 ) -> Pieced {
+    run_input(
+        make,
+        &MarchInput::from_point(step, start),
+        settings,
+        threads,
+    )
+}
+
+/// The same triangles and the same vertices, bit for bit.
+fn same_bits(a: &Mesh, b: &Mesh) -> bool {
+    a.triangles == b.triangles
+        && a.vertices.len() == b.vertices.len()
+        && a.vertices
+            .iter()
+            .zip(&b.vertices)
+            .all(|(p, q)| p.to_array().map(f64::to_bits) == q.to_array().map(f64::to_bits))
+}
+
+/// Marches `input` on `make()`'s surface with the given settings on a pool of `threads`.
+fn run_input(
+    make: fn() -> Box<dyn Surface>,
+    input: &MarchInput,
+    settings: &MarchSettings,
+    threads: usize,
+) -> Pieced {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -32,14 +57,7 @@ fn run(
     pool.install(|| {
         let fork = || Some(make());
         let mut surface = make();
-        pieces::march(
-            &mut surface,
-            Some(&fork),
-            &MarchInput::from_point(step, start),
-            settings,
-            None,
-        )
-        .expect("the march")
+        pieces::march(&mut surface, Some(&fork), input, settings, None).expect("the march")
     })
 }
 
@@ -138,16 +156,10 @@ fn cut_and_check(
             other.pieces, one.pieces,
             "{name}: pieces with {threads} threads"
         );
-        let same = other.marched.mesh.triangles == mesh.triangles
-            && other
-                .marched
-                .mesh
-                .vertices
-                .iter()
-                .zip(&mesh.vertices)
-                .all(|(a, b)| a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits))
-            && other.marched.mesh.vertices.len() == mesh.vertices.len();
-        assert!(same, "{name}: another mesh with {threads} threads");
+        assert!(
+            same_bits(&other.marched.mesh, mesh),
+            "{name}: another mesh with {threads} threads"
+        );
     }
     one
 }
@@ -264,23 +276,6 @@ fn a_small_component_is_not_cut_and_nothing_is_cut_without_a_fork() {
     assert_eq!(plain.marched.mesh, whole.marched.mesh);
 }
 
-/// The paper's three cylinders (Sect. 3.6: f1 f2 f3 − c) in their box, from their start.
-fn three_cylinders() -> Box<dyn Surface> {
-    Box::new(NativeSurface(|p: DVec3| {
-        let (x, y, z) = (p.x, p.y, p.z);
-        let f1 = x * x + (z - 5.0).powi(2) - 4.0;
-        let f2 = (y + 4.0).powi(2) + z * z - 4.0;
-        let f3 = (y - 4.0).powi(2) + z * z - 4.0;
-        let g1 = DVec3::new(2.0 * x, 0.0, 2.0 * (z - 5.0));
-        let g2 = DVec3::new(0.0, 2.0 * (y + 4.0), 2.0 * z);
-        let g3 = DVec3::new(0.0, 2.0 * (y - 4.0), 2.0 * z);
-        vg(
-            f1 * f2 * f3 - 2287.5587,
-            g1 * f2 * f3 + f1 * g2 * f3 + f1 * f2 * g3,
-        )
-    }))
-}
-
 /// A component in a box is cut along curves that end on the box's faces (docs/pieces.md, *In
 /// a box*): the three cylinders at step 0.1 (five boundary loops on the box, χ = −3) in two
 /// slabs, whose cut curves and border curves are traced and shared at corners. The joined
@@ -295,17 +290,8 @@ fn a_component_in_a_box_is_cut_along_curves_that_end_on_the_box() {
         bbox: Some((lo, hi)),
         ..MarchInput::from_point(step, DVec3::new(0.0, -4.0, -2.0))
     };
-    let run = |settings: &MarchSettings, threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("a pool");
-        pool.install(|| {
-            let fork = || Some(three_cylinders());
-            pieces::march(&mut three_cylinders(), Some(&fork), &input, settings, None)
-                .expect("the march")
-        })
-    };
+    let make: fn() -> Box<dyn Surface> = || common::three_cylinders(2287.5587);
+    let run = |settings: &MarchSettings, threads: usize| run_input(make, &input, settings, threads);
     let sliced = run(&MarchSettings::default(), 1);
     assert_eq!(sliced.pieces, 2, "cut in two");
     let whole = run(
@@ -319,7 +305,7 @@ fn a_component_in_a_box_is_cut_along_curves_that_end_on_the_box() {
     let mesh = &sliced.marched.mesh;
     let (topo, violations) = check(
         mesh,
-        Some(&mut three_cylinders()),
+        Some(&mut make()),
         &Expect {
             euler: Some(-3),
             components: Some(1),
@@ -332,16 +318,7 @@ fn a_component_in_a_box_is_cut_along_curves_that_end_on_the_box() {
         },
     );
     assert!(violations.is_empty(), "{violations:?}");
-    let area = |m: &Mesh| -> f64 {
-        m.triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|k| m.vertices[k as usize]);
-                0.5 * (b - a).cross(c - a).length()
-            })
-            .sum()
-    };
-    let (a, b) = (area(mesh), area(&whole.marched.mesh));
+    let (a, b) = (common::area(mesh), common::area(&whole.marched.mesh));
     eprintln!(
         "three cylinders in their box: {} slabs, {} triangles (whole {}), area {a:.4} ({b:.4})",
         sliced.pieces,
@@ -351,15 +328,9 @@ fn a_component_in_a_box_is_cut_along_curves_that_end_on_the_box() {
     assert!((a - b).abs() <= 0.005 * b, "area {a} against {b}");
     for threads in [2, 8] {
         let other = run(&MarchSettings::default(), threads);
-        let same = other.marched.mesh.triangles == mesh.triangles
-            && other.marched.mesh.vertices.len() == mesh.vertices.len()
-            && other
-                .marched
-                .mesh
-                .vertices
-                .iter()
-                .zip(&mesh.vertices)
-                .all(|(p, q)| p.to_array().map(f64::to_bits) == q.to_array().map(f64::to_bits));
-        assert!(same, "another mesh with {threads} threads");
+        assert!(
+            same_bits(&other.marched.mesh, mesh),
+            "another mesh with {threads} threads"
+        );
     }
 }

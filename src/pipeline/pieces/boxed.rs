@@ -15,8 +15,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{
-    CROSS_SINE, MIN_LOOP, NoCut, Placed, Slabs, Survey, in_parallel, local_step, planes,
-    slab_inputs, survey,
+    CROSS_SINE, MIN_LOOP, NoCut, Placed, Slabs, Survey, cut_into_slabs, local_step, slab_inputs,
 };
 use crate::march::{MarchInput, MarchSettings};
 use crate::mesh::Mesh;
@@ -114,43 +113,16 @@ pub(super) fn plan(
         return Ok(None);
     };
     let step = input.step;
-    let mut s = fork().ok_or(NoCut::Fork)?;
-    let survey = survey(&mut s, input, settings)?;
-    let Some(mut n) = survey.slabs(settings) else {
-        return Ok(None);
-    };
-    let topo = topology(&survey.mesh);
-    if !topo.non_manifold_edges.is_empty()
-        || !topo.misoriented_edges.is_empty()
-        || topo.components != 1
-    {
-        return Err(NoCut::CoarseOpen);
-    }
-    let (lo, extent, axes) = survey.axes();
-    let tolerance = input.tolerance.unwrap_or(settings.tolerance * step);
-    let sizing = Sizing::of_mesh(step, tolerance, false, settings.sizing);
-    let mut last = NoCut::Fork;
-    loop {
-        let found = planes(n, &axes, lo, extent, &mut last, |axis, bases, width| {
-            in_parallel(fork, bases, width, |s, at| {
-                cut(s, &survey, axis, at, step, settings, &sizing, bbox)
-            })
-        });
-        if let Some((axis, cuts)) = found {
-            match slabs(fork, &survey, axis, &cuts, input, settings, &sizing, bbox) {
-                Ok(mut slabs) => {
-                    slabs.chi = topo.euler_characteristic;
-                    slabs.boundary_loops = topo.boundary_loops.len();
-                    return Ok(Some(slabs));
-                }
-                Err(e) => last = e,
-            }
-        }
-        if n <= 2 {
-            return Err(last);
-        }
-        n = (n / 2).max(2);
-    }
+    cut_into_slabs(
+        fork,
+        input,
+        settings,
+        |topo| topo.non_manifold_edges.is_empty() && topo.misoriented_edges.is_empty(),
+        |s, survey, sizing, axis, at| cut(s, survey, axis, at, step, settings, sizing, bbox),
+        |survey, sizing, axis, cuts| {
+            slabs(fork, survey, axis, &cuts, input, settings, sizing, bbox)
+        },
+    )
 }
 
 /// The curves where the plane `p[axis] = at` cuts the surface in the box, traced from the

@@ -134,15 +134,6 @@ pub enum NoCut {
     Limit { total: u64, limit: u64 },
 }
 
-/// The cuts a component is marched in: the axis, the cuts in increasing position, the
-/// survey's Euler characteristic, and each slab's triangles as the survey estimates them.
-struct Plan {
-    axis: usize,
-    cuts: Vec<Cut>,
-    chi: i64,
-    estimates: Vec<f64>,
-}
-
 /// What was cut at one plane: its position and what the cut made (the loops as traced).
 #[derive(Clone, Debug)]
 pub(super) struct Placed<T> {
@@ -174,7 +165,7 @@ pub fn march(
         let planned = if input.bbox.is_some() {
             boxed::plan(fork, input, settings)
         } else {
-            plan(fork, input, settings).map(|p| p.map(|plan| slabs(input, settings, &plan)))
+            plan(fork, input, settings)
         };
         let pieced = planned.and_then(|p| match p {
             Some(slabs) => {
@@ -235,13 +226,47 @@ pub fn march(
     })
 }
 
-/// The coarse survey and the cuts: None when the component is small enough to march whole,
-/// else the plan of its slabs.
+/// The coarse survey and the cuts of a component that is not in a box: None when it is
+/// small enough to march whole, else its slabs.
 fn plan(
     fork: &Fork<'_>,
     input: &MarchInput,
     settings: &MarchSettings,
-) -> Result<Option<Plan>, NoCut> {
+) -> Result<Option<Slabs>, NoCut> {
+    cut_into_slabs(
+        fork,
+        input,
+        settings,
+        |topo| topo.is_closed_and_oriented(),
+        |s, survey, sizing, axis, at| {
+            cut(
+                s,
+                &survey.mesh,
+                survey.step,
+                axis,
+                at,
+                input.step,
+                settings,
+                sizing,
+            )
+        },
+        |survey, _, axis, cuts| Ok(slabs(input, settings, survey, axis, &cuts)),
+    )
+}
+
+/// The survey (which `accepts` must take, one component), then the planes of n slabs across
+/// the first axis where `cut` takes them all, and `slabs` of what it cut; where no axis takes
+/// them (one meets the surface at a grazing angle wherever it is shifted: more planes, more
+/// such places) or `slabs` refuses them, half as many slabs, down to two. The slabs get the
+/// survey's Euler characteristic and boundary loops to be held to.
+pub(super) fn cut_into_slabs<T: Send>(
+    fork: &Fork<'_>,
+    input: &MarchInput,
+    settings: &MarchSettings,
+    accepts: impl Fn(&Topology) -> bool,
+    cut: impl Fn(&mut dyn Surface, &Survey, &Sizing, usize, f64) -> Result<T, NoCut> + Sync,
+    slabs: impl Fn(&Survey, &Sizing, usize, Vec<Placed<T>>) -> Result<Slabs, NoCut>,
+) -> Result<Option<Slabs>, NoCut> {
     let step = input.step;
     let mut s = fork().ok_or(NoCut::Fork)?;
     let survey = survey(&mut s, input, settings)?;
@@ -249,38 +274,28 @@ fn plan(
         return Ok(None);
     };
     let topo = topology(&survey.mesh);
-    if !topo.is_closed_and_oriented() || topo.components != 1 {
+    if !accepts(&topo) || topo.components != 1 {
         return Err(NoCut::CoarseOpen);
     }
     let (lo, extent, axes) = survey.axes();
     let tolerance = input.tolerance.unwrap_or(settings.tolerance * step);
     let sizing = Sizing::of_mesh(step, tolerance, false, settings.sizing);
     let mut last = NoCut::Fork;
-    // Where no axis takes n - 1 planes (one meets the surface at a grazing angle wherever it
-    // is shifted: more planes, more such places), half as many slabs, down to two.
     loop {
         let found = planes(n, &axes, lo, extent, &mut last, |axis, bases, width| {
             in_parallel(fork, bases, width, |s, at| {
-                cut(
-                    s,
-                    &survey.mesh,
-                    survey.step,
-                    axis,
-                    at,
-                    step,
-                    settings,
-                    &sizing,
-                )
+                cut(s, &survey, &sizing, axis, at)
             })
         });
         if let Some((axis, cuts)) = found {
-            let at: Vec<f64> = cuts.iter().map(|c| c.at).collect();
-            return Ok(Some(Plan {
-                axis,
-                estimates: survey.estimates(axis, &at),
-                cuts,
-                chi: topo.euler_characteristic,
-            }));
+            match slabs(&survey, &sizing, axis, cuts) {
+                Ok(mut slabs) => {
+                    slabs.chi = topo.euler_characteristic;
+                    slabs.boundary_loops = topo.boundary_loops.len();
+                    return Ok(Some(slabs));
+                }
+                Err(e) => last = e,
+            }
         }
         if n <= 2 {
             return Err(last);
@@ -345,7 +360,7 @@ impl Survey {
 /// The coarse march from the component's start (in its box, where it has one) at `COARSE`
 /// steps, and where the surface has features too small for that (the survey fails), at half
 /// of it; no quality stage, no regrading: only its area, extent and sections count.
-pub(super) fn survey(
+fn survey(
     s: &mut dyn Surface,
     input: &MarchInput,
     settings: &MarchSettings,
@@ -400,7 +415,7 @@ pub(super) fn survey(
 /// gets the axis, the planes' places and the slabs' width, and cuts each plane at its place
 /// or `shifted`), with what it made of each; None (and why the last axis failed in `last`)
 /// where no axis takes them.
-pub(super) fn planes<T>(
+fn planes<T>(
     n: usize,
     axes: &[usize; 3],
     lo: DVec3,
@@ -422,7 +437,7 @@ pub(super) fn planes<T>(
 /// The planes at `bases` (each `shifted`) on the pool's threads, each on a fresh oracle: what
 /// one finds does not depend on which thread ran it or what ran before. The first refusal in
 /// the planes' order where one is refused.
-pub(super) fn in_parallel<T: Send>(
+fn in_parallel<T: Send>(
     fork: &Fork<'_>,
     bases: &[f64],
     width: f64,
@@ -440,7 +455,7 @@ pub(super) fn in_parallel<T: Send>(
 
 /// The plane at `base`, or moved by `SHIFTS` of the slabs' `width`, where `cut` first takes
 /// it; else the last refusal.
-pub(super) fn shifted<T>(
+fn shifted<T>(
     base: f64,
     width: f64,
     mut cut: impl FnMut(f64) -> Result<T, NoCut>,
@@ -622,9 +637,16 @@ fn section(mesh: &Mesh, axis: usize, at: f64) -> Option<Vec<Vec<DVec3>>> {
 
 /// The slabs of a component that is not in a box: between the cuts, the upper plane's
 /// loops as traced (the slab below them), the lower plane's reversed (module doc 3).
-fn slabs(input: &MarchInput, settings: &MarchSettings, plan: &Plan) -> Slabs {
-    let cuts = &plan.cuts;
+fn slabs(
+    input: &MarchInput,
+    settings: &MarchSettings,
+    survey: &Survey,
+    axis: usize,
+    cuts: &[Cut],
+) -> Slabs {
     let n = cuts.len() + 1;
+    let planes: Vec<f64> = cuts.iter().map(|c| c.at).collect();
+    let estimates = survey.estimates(axis, &planes);
     let polygons = (0..n)
         .map(|k| {
             let mut loops: Vec<Vec<DVec3>> = Vec::new();
@@ -642,15 +664,15 @@ fn slabs(input: &MarchInput, settings: &MarchSettings, plan: &Plan) -> Slabs {
         })
         .collect();
     Slabs {
-        axis: plan.axis,
-        planes: cuts.iter().map(|c| c.at).collect(),
-        inputs: slab_inputs(input, settings, polygons, &plan.estimates),
+        axis,
+        planes,
+        inputs: slab_inputs(input, settings, polygons, &estimates),
         shared: cuts
             .iter()
             .flat_map(|c| c.loops.iter().flatten().copied())
             .collect(),
         cuts: cuts.iter().flat_map(|c| c.loops.iter().cloned()).collect(),
-        chi: plan.chi,
+        chi: 0,
         boundary_loops: 0,
         bbox: None,
     }
