@@ -148,7 +148,7 @@ fn cut(
     let mut e = DVec3::ZERO;
     e[axis] = 1.0;
     let mut pieces = Vec::with_capacity(sections.len());
-    for (coarse, _) in &sections {
+    for (coarse, coarse_closed) in &sections {
         let seed = coarse[coarse.len() / 2];
         let piece = trace(
             s,
@@ -182,7 +182,9 @@ fn cut(
             return Err(refuse("a cut curve is tiny"));
         }
         let reach = 0.5 * survey.step;
-        if !near_all(&piece.points, coarse, reach) || !near_all(coarse, &piece.points, reach) {
+        if !near_all(&piece.points, coarse, *coarse_closed, reach)
+            || !near_all(coarse, &piece.points, piece.closed, reach)
+        {
             return Err(refuse(
                 "a traced cut curve does not follow its coarse section",
             ));
@@ -218,8 +220,8 @@ fn trace(
     on: (usize, f64),
 ) -> Option<Piece> {
     let tol = CurveTolerance::default();
-    // The plane's own coordinate a little inside the box's walls, so that the trace is
-    // not taken for leaving it through them.
+    // Along the plane's own axis the clip box reaches a step either side of the plane: the
+    // trace lies in the plane (to rounding) and must not be taken for leaving through it.
     let mut inner = bbox;
     inner.0[on.0] = on.1 - step;
     inner.1[on.0] = on.1 + step;
@@ -262,12 +264,14 @@ fn trace(
     })
 }
 
-/// Every point of `a` within `reach` of the polyline `b` (open).
-fn near_all(a: &[DVec3], b: &[DVec3], reach: f64) -> bool {
+/// Every point of `a` within `reach` of the polyline `b` (closed: its last point joined to
+/// its first).
+fn near_all(a: &[DVec3], b: &[DVec3], closed: bool, reach: f64) -> bool {
+    let segments = b.len().saturating_sub(usize::from(!closed));
     a.iter().all(|&p| {
         b.len() == 1 && b[0].distance(p) <= reach
-            || b.windows(2).any(|w| {
-                let (u, v) = (w[0], w[1]);
+            || (0..segments).any(|i| {
+                let (u, v) = (b[i], b[(i + 1) % b.len()]);
                 (u + nearest_on_segment(p, u, v) * (v - u)).distance(p) <= reach
             })
     })
