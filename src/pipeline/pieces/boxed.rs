@@ -19,7 +19,6 @@ use super::{
 };
 use crate::march::{MarchInput, MarchSettings};
 use crate::mesh::Mesh;
-use crate::mesh::topology::topology;
 use crate::solve::curve::{self, nearest_on_segment};
 use crate::solve::tolerance::CurveTolerance;
 use crate::surface::{Fork, NativeSurface, Surface, ValueGrad};
@@ -119,8 +118,18 @@ pub(super) fn plan(
         settings,
         |topo| topo.non_manifold_edges.is_empty() && topo.misoriented_edges.is_empty(),
         |s, survey, sizing, axis, at| cut(s, survey, axis, at, step, settings, sizing, bbox),
-        |survey, sizing, axis, cuts| {
-            slabs(fork, survey, axis, &cuts, input, settings, sizing, bbox)
+        |survey, topo, sizing, axis, cuts| {
+            slabs(
+                fork,
+                survey,
+                &topo.boundary_edges,
+                axis,
+                &cuts,
+                input,
+                settings,
+                sizing,
+                bbox,
+            )
         },
     )
 }
@@ -341,11 +350,13 @@ fn section(mesh: &Mesh, axis: usize, at: f64) -> Vec<(Vec<DVec3>, bool)> {
 /// The slabs between the cuts: each slab's border curves on the box's faces, chained with
 /// its cut curves into closed polygons; the slabs on the pool's threads, each on a fresh
 /// oracle.
-// The oracles, the survey, the cuts, the block, what the curves are sampled for, the box.
+// The oracles, the survey and its boundary edges, the cuts, the block, what the curves are
+// sampled for, the box.
 #[allow(clippy::too_many_arguments)]
 fn slabs(
     fork: &Fork<'_>,
     survey: &Survey,
+    boundary: &[[u32; 2]],
     axis: usize,
     cuts: &[Placed<Vec<Piece>>],
     input: &MarchInput,
@@ -355,13 +366,12 @@ fn slabs(
 ) -> Result<Slabs, NoCut> {
     let step = input.step;
     let at: Vec<f64> = cuts.iter().map(|c| c.at).collect();
-    let boundary = topology(&survey.mesh).boundary_edges;
     let polygons: Vec<Result<Vec<Vec<DVec3>>, NoCut>> = (0..=cuts.len())
         .into_par_iter()
         .map(|k| {
             let mut s = fork().ok_or(NoCut::Fork)?;
             slab_polygons(
-                &mut *s, survey, &boundary, axis, cuts, k, step, settings, sizing, bbox,
+                &mut *s, survey, boundary, axis, cuts, k, step, settings, sizing, bbox,
             )
         })
         .collect();

@@ -1,4 +1,4 @@
-//! Parallel pieces (docs/pieces.md, issue 14): one large component marched
+//! Parallel pieces (docs/pieces.md, issues 14 and 41): one large component marched
 //! from a start point is cut along planes into slabs, the cut curves (surface ∩ plane) are
 //! traced once and shared as polygons between the two slabs they separate (the paper's
 //! coherent nets, Sects. 3.9 and 3.11), and each slab is marched on its own thread of the
@@ -7,7 +7,7 @@
 //! 1. Survey: a coarse march (`COARSE` × the step, no quality stage) from the same start
 //!    gives the component's extent, area and topology. Its area over √3/4·step² estimates
 //!    the triangle count; below `MarchSettings::pieces_above` the component is marched
-//!    whole. Otherwise it is cut into n = ⌈estimate / pieces_above⌉ slabs rounded up to a
+//!    whole. Otherwise it is cut into n = ⌈estimate / piece_triangles⌉ slabs rounded up to a
 //!    power of two (2 ..= `pieces_max`: 2, 4 or 8 threads share them evenly), of equal width
 //!    along the longest axis of its extent. n depends only on the surface and the settings,
 //!    never on the number of threads.
@@ -17,15 +17,19 @@
 //!    its coarse loop (each within half a coarse step of the other), crosses the plane at 30°
 //!    or more (`CROSS_SINE`), has at least `MIN_LOOP` vertices, and stays a coarse step away
 //!    from the plane's other loops. (Where the survey fails at `COARSE` steps, it is made
-//!    at half that.) Else the plane is shifted (`SHIFTS` of the slab width),
-//!    then the next axis is tried, then the component is marched whole.
+//!    at half that.) Else the plane is shifted (`SHIFTS` of the slab width), then the next
+//!    axis is tried, then half as many slabs, then the component is marched whole. The
+//!    planes of an axis are cut on the pool's threads, each on a fresh oracle. A component
+//!    in a box (`boxed`) has its cut curves end on the box's faces, and its slabs' border
+//!    curves on the faces traced too: every slab is bounded by closed polygons.
 //! 3. Pieces: slab k marches with the loops of its upper plane as traced (the traced
 //!    direction ∇f × e_axis has the side below the plane on its left) and those of its lower
 //!    plane reversed, the first as front, the rest as bounds; each on a fresh oracle from the
 //!    fork, so its mesh is the same whichever thread runs it. Every piece is verified by the
 //!    marcher as usual.
-//! 4. Join: every vertex of a piece lies in its slab, the joined mesh is closed, oriented,
-//!    one component, with the coarse mesh's Euler characteristic, no two triangles near a
+//! 4. Join: every vertex of a piece lies in its slab (and box), the joined mesh is oriented,
+//!    closed but on the box's faces, one component, with the coarse mesh's Euler
+//!    characteristic and boundary loops, no two triangles near a
 //!    plane cross, and no triangle at a cut polygon is below `CUT_ANGLE` (unless the mesh
 //!    has a smaller angle away from the cuts too: the cut must not be the worst place).
 //!    Anything else, or any failure on the way, marches the component whole
@@ -145,7 +149,7 @@ pub(super) struct Placed<T> {
 type Cut = Placed<Vec<Vec<DVec3>>>;
 
 /// Marches `input` as `march::march_verified` does; a large component from a start point
-/// (no bounds, no box, not uniform) with a `fork` is cut into slabs marched on the rayon pool
+/// (no bounds, not uniform, in a box or not) with a `fork` is cut into slabs marched on the rayon pool
 /// as the module documentation says. Errors are those of the whole march: a component that
 /// cannot be cut, or whose pieces fail, is marched whole.
 pub fn march(
@@ -250,12 +254,13 @@ fn plan(
                 sizing,
             )
         },
-        |survey, _, axis, cuts| Ok(slabs(input, settings, survey, axis, &cuts)),
+        |survey, _, _, axis, cuts| Ok(slabs(input, settings, survey, axis, &cuts)),
     )
 }
 
-/// The survey (which `accepts` must take, one component), then the planes of n slabs across
-/// the first axis where `cut` takes them all, and `slabs` of what it cut; where no axis takes
+/// The survey (whose topology `accepts` must take, one component), then the planes of n slabs
+/// across the first axis where `cut` takes them all, and `slabs` of what it cut (given the
+/// survey's topology too); where no axis takes
 /// them (one meets the surface at a grazing angle wherever it is shifted: more planes, more
 /// such places) or `slabs` refuses them, half as many slabs, down to two. The slabs get the
 /// survey's Euler characteristic and boundary loops to be held to.
@@ -265,7 +270,7 @@ pub(super) fn cut_into_slabs<T: Send>(
     settings: &MarchSettings,
     accepts: impl Fn(&Topology) -> bool,
     cut: impl Fn(&mut dyn Surface, &Survey, &Sizing, usize, f64) -> Result<T, NoCut> + Sync,
-    slabs: impl Fn(&Survey, &Sizing, usize, Vec<Placed<T>>) -> Result<Slabs, NoCut>,
+    slabs: impl Fn(&Survey, &Topology, &Sizing, usize, Vec<Placed<T>>) -> Result<Slabs, NoCut>,
 ) -> Result<Option<Slabs>, NoCut> {
     let step = input.step;
     let mut s = fork().ok_or(NoCut::Fork)?;
@@ -288,7 +293,7 @@ pub(super) fn cut_into_slabs<T: Send>(
             })
         });
         if let Some((axis, cuts)) = found {
-            match slabs(&survey, &sizing, axis, cuts) {
+            match slabs(&survey, &topo, &sizing, axis, cuts) {
                 Ok(mut slabs) => {
                     slabs.chi = topo.euler_characteristic;
                     slabs.boundary_loops = topo.boundary_loops.len();
