@@ -5,6 +5,11 @@
 use crate::solve::tolerance::SurfacePointTolerance;
 use crate::survey::sizing::SizingSettings;
 
+/// The quality stage's default aim for the mean radius ratio: docs/quality.md's bar of 0.97
+/// with a margin. Also the least aim the cut into slabs holds the joined slabs to (less a
+/// margin, `pipeline::pieces`) and where a higher aim's centroid rounds start.
+pub const DEFAULT_QUALITY_RATIO: f64 = 0.975;
+
 /// Settings of `march::march`. `Default` gives the values the tests were run with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MarchSettings {
@@ -54,10 +59,10 @@ pub struct MarchSettings {
     /// insert). Default 6.
     pub quality_rounds: u32,
     /// The mean radius ratio the quality stage raises a mesh to once its angles are mended:
-    /// a round of smoothing towards the rings' centroids where that can reach it, and the
+    /// rounds of smoothing towards the rings' centroids where they can reach it, and the
     /// costlier ratios' phase only for a mesh still below it (or with a triangle still below
-    /// the angle). Default 0.975 (docs/quality.md's bar of 0.97 with a margin). At 1 every mesh
-    /// gets every phase (a mesh block's `radius_ratio:`).
+    /// the angle). Default `DEFAULT_QUALITY_RATIO`. At 1 every mesh gets every phase (a mesh
+    /// block's `radius_ratio:`).
     pub quality_ratio: f64,
     /// The quality stage inserts at most this fraction of the triangle count (plus 64) as
     /// new vertices. Default 0.05.
@@ -121,7 +126,7 @@ impl Default for MarchSettings {
             box_snap: 0.3,
             quality_angle: 0.524,
             quality_rounds: 6,
-            quality_ratio: 0.975,
+            quality_ratio: DEFAULT_QUALITY_RATIO,
             quality_insert: 0.05,
             max_triangles: 10_000_000,
             polygon_edge_min: 0.25,

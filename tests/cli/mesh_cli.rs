@@ -208,6 +208,45 @@ fn box_only_mesh_reports_components_and_warnings() {
 /// `radius_ratio:` is the mean radius ratio the quality stage raises the mesh to: the
 /// default's aim (0.975) is reached, a higher aim costs more phases and gives a higher mean,
 /// a low one leaves the march's triangles as the angle's rounds left them (still ≥ 30°).
+/// An aim above the default on a mesh large enough to be cut into slabs: the centroid's
+/// rounds lift it past what one round and the ratios' phase reached (the sphere 0.9844 with
+/// `radius_ratio: 1` before), and the cut is kept (the joined slabs were held to the aim and
+/// refused, and the whole march made less).
+#[test]
+fn a_high_radius_ratio_keeps_the_slabs_and_lifts_the_mean() {
+    let dir = cli::scratch("mesh-cli-high-radius-ratio");
+    let run = |aim: &str| {
+        let text = format!(
+            "surface s = x^2 + y^2 + z^2 - 4;\nmesh m = s {{ step: 0.03; start: (1, 1, 1); {aim} }}\n"
+        );
+        let file = write(&dir, "m.surf", &text);
+        let (code, stdout, stderr) =
+            cli::surfc(&["mesh", &file, "--json", "-q", "-o", "m.obj"], &dir).text();
+        assert_eq!(code, 0, "{text}: {stderr}");
+        let json: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+        let m = json["meshes"][0].clone();
+        assert_eq!(m["euler_characteristic"], 2, "{aim}");
+        assert_eq!(m["boundary_edges"], 0, "{aim}");
+        assert!(m["min_angle_deg"].as_f64().unwrap() >= 30.0, "{aim}: {m}");
+        (
+            m["radius_ratio_mean"].as_f64().unwrap(),
+            m["pieces"].as_u64().unwrap_or(1),
+        )
+    };
+    let (default, default_pieces) = run("");
+    for aim in ["radius_ratio: 0.995;", "radius_ratio: 1;"] {
+        let (high, pieces) = run(aim);
+        eprintln!(
+            "sphere at step 0.03: default {default:.4} in {default_pieces} slab(s), {aim} {high:.4} in {pieces}"
+        );
+        assert_eq!(pieces, default_pieces, "{aim}: the cut is kept");
+        assert!(
+            high >= 0.992 && high > default + 0.004,
+            "{aim}: {high} against {default}"
+        );
+    }
+}
+
 #[test]
 fn radius_ratio_sets_the_quality_stages_aim() {
     let dir = cli::scratch("mesh-cli-radius-ratio");

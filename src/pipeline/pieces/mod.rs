@@ -47,6 +47,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::crease_net::merge_at;
+use crate::march::settings::DEFAULT_QUALITY_RATIO;
 use crate::march::{self, Held, MarchError, MarchInput, MarchSettings, Marched, Start};
 use crate::mesh::Mesh;
 use crate::mesh::check::intersecting_pairs;
@@ -77,9 +78,11 @@ const SLAB_MARGIN: f64 = 1e-6;
 /// The quality bar at the cut polygons (docs/quality.md, degrees): a triangle there below it,
 /// and below every triangle away from the cuts, refuses the cut.
 pub const CUT_ANGLE: f64 = 30.0;
-/// The quality stage's aim (`MarchSettings::quality_ratio`) less this is the least mean
-/// radius ratio the joined slabs may have: the default aim 0.975 is docs/quality.md's bar of
-/// 0.97 with this margin.
+/// The quality stage's aim (`MarchSettings::quality_ratio`), or the default aim where it is
+/// higher, less this is the least mean radius ratio the joined slabs may have: the default
+/// aim 0.975 is docs/quality.md's bar of 0.97 with this margin. (A higher aim is what the
+/// stage strives for, not a bar: held to it, the sphere's slabs at step 0.03 with
+/// `radius_ratio: 1` were refused at 0.9926 and the whole march made 0.9844.)
 const RATIO_MARGIN: f64 = 0.005;
 /// A slab may make this many times the triangles the survey's area in it estimates, plus
 /// `SLAB_SHARE_MIN`, before its march is stopped (and the component marched whole).
@@ -834,7 +837,7 @@ fn march_slabs(
     // 0.965 in three slabs where the whole makes 0.977): such a cut is not taken.
     if settings.quality_angle > 0.0 {
         let mean = shapes.mean_ratio;
-        let bar = settings.quality_ratio - RATIO_MARGIN;
+        let bar = settings.quality_ratio.min(DEFAULT_QUALITY_RATIO) - RATIO_MARGIN;
         if mean < bar {
             return Err(NoCut::Ratio { mean, bar });
         }
