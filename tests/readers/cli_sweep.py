@@ -14,7 +14,8 @@ watertight, consistently wound, the Euler characteristic and the number of compo
 construction, the extent within the chord tolerance (0.1 step) of the exact one (support
 functions), the volume within 0.1 step times the area. A refusal (a non-zero exit with a
 diagnostic) counts as refused, never as wrong. Prints one line a shape and the tally; exits
-with 1 if any mesh is wrong.
+with 1 if any mesh is wrong. With SURFC_SWEEP_RATIO=R in the environment every block also
+says `radius_ratio: R;` (the quality stage's aim; the shapes and steps drawn are the same).
 """
 import math, os, random, subprocess, sys
 import numpy as np, trimesh
@@ -104,6 +105,8 @@ for i in range(N):
         step = math.sqrt(area / (want * math.sqrt(3) / 4))
     step = float("%.4g" % step)
     opts = "step: %r;" % step
+    if os.environ.get("SURFC_SWEEP_RATIO"):
+        opts += " radius_ratio: %s;" % os.environ["SURFC_SWEEP_RATIO"]
     if sh["box"] is not None:
         opts += " box: %s .. %s;" % (fmt(sh["box"][0]), fmt(sh["box"][1]))
     else:
