@@ -797,7 +797,7 @@ fn improve(
     }
     if let Some(below_before) = below_before {
         eprintln!(
-            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es), {} removed in {} round(s) ({:.3} s); mean radius ratio {:.4}, then {} centroid and {} ODT round(s) of smoothing with {} move(s) ({:.3} s) and {} round(s) of the ratios' phase: {:.4}; {:.3} s in all; stopped: {}",
+            "march: quality: {} triangle(s) below {:.1}° before, {} after; {} flip(s), {} move(s), {} inserted vertex(es), {} removed in {} round(s) ({:.3} s); mean radius ratio {:.4}, then {} centroid and {} ODT round(s) of smoothing with {} move(s) ({:.3} s) and {} round(s) of the ratios' phase: {:.4}; {:.3} s in all; stopped: {}{}",
             below_before,
             limits.angle.to_degrees(),
             report.below_after,
@@ -815,7 +815,12 @@ fn improve(
             report.polish_rounds,
             report.ratio_after,
             started.elapsed().as_secs_f64(),
-            report.stop
+            report.stop,
+            if report.above_default_undone {
+                "; the phases above the default aim made a crossing: undone"
+            } else {
+                ""
+            }
         );
     }
     Leftovers {

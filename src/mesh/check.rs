@@ -374,9 +374,13 @@ pub const ANY_GROUP: u32 = u32::MAX;
 /// before they were put together (the pieces of a creased surface), checked again only
 /// across one another and where something moved since.
 pub fn intersecting_pairs_across(mesh: &Mesh, groups: Option<&[u32]>) -> Vec<[u32; 2]> {
-    debug_assert!(groups.is_none_or(|g| g.len() == mesh.triangles.len()));
-    let vs = &mesh.vertices;
-    let tris = &mesh.triangles;
+    crossing_pairs(&mesh.vertices, &mesh.triangles, groups)
+}
+
+/// `intersecting_pairs_across` of the triangles `tris` over the vertices `vs`, for a mesh
+/// still being made (the quality stage's, before it is a `Mesh`).
+pub fn crossing_pairs(vs: &[DVec3], tris: &[[u32; 3]], groups: Option<&[u32]>) -> Vec<[u32; 2]> {
+    debug_assert!(groups.is_none_or(|g| g.len() == tris.len()));
     let slot = |i: u32| {
         let corners = tris[i as usize];
         let [a, b, c] = corners.map(|k| vs[k as usize]);

@@ -8,6 +8,8 @@
 //! falls short, valence flips and smoothing up the gradient of each fan's radius ratios
 //! (`Stage::polish`) around rounds towards the optimal Delaunay triangulation — all under a
 //! guard that cannot lower the smallest angle below min(target, what the rounds reached).
+//! An aim above the default gets the default's phases first, then centroid rounds while they
+//! gain and the rest again, kept only if they leave no two triangles crossing.
 //!
 //! Input: the marcher's triangulation (vertices exactly on the surface, normals ∇f/|∇f|,
 //! which vertices are polygon or border points) and the surface. Output: the same
@@ -232,6 +234,9 @@ pub(super) struct Report {
     pub ratio_after: f64,
     /// Why the stage stopped.
     pub stop: &'static str,
+    /// The phases above the default aim made a crossing, and the default's mesh was put
+    /// back (`Stage::run`).
+    pub above_default_undone: bool,
     /// The triangles left below the target whose corners are all free, as (centroid, the
     /// largest local step of its corners): no given corner excuses them, so the march's
     /// loop refines the local step there (`march_verified`).
@@ -289,6 +294,17 @@ pub(super) struct Stage<'a> {
     bad_sin2: f64,
 }
 
+/// What the phases above the default aim may change (positions, normals, flips), kept to
+/// be put back (`Stage::save`, `Stage::restore`).
+pub(super) struct Saved {
+    pos: Vec<DVec3>,
+    normal: Vec<DVec3>,
+    tri: Vec<[u32; 3]>,
+    twin: Vec<u32>,
+    out: Vec<u32>,
+    valence: Vec<u32>,
+}
+
 /// One change recorded while an insertion is on trial.
 enum Undo {
     Tri(u32, [u32; 3]),
@@ -306,6 +322,29 @@ fn prev(e: u32) -> u32 {
 }
 
 impl Stage<'_> {
+    /// The state the ratio's phases change (they neither insert nor remove vertices, nor
+    /// slide border points).
+    pub(super) fn save(&self) -> Saved {
+        Saved {
+            pos: self.pos.clone(),
+            normal: self.normal.clone(),
+            tri: self.tri.clone(),
+            twin: self.twin.clone(),
+            out: self.out.clone(),
+            valence: self.valence.clone(),
+        }
+    }
+
+    /// Puts back what `save` kept.
+    pub(super) fn restore(&mut self, saved: Saved) {
+        *self.pos = saved.pos;
+        *self.normal = saved.normal;
+        *self.tri = saved.tri;
+        self.twin = saved.twin;
+        self.out = saved.out;
+        self.valence = saved.valence;
+    }
+
     fn org(&self, e: u32) -> u32 {
         self.tri[(e / 3) as usize][(e % 3) as usize]
     }

@@ -828,6 +828,74 @@ fn the_ratio_phases_stop_at_their_aim() {
     }
 }
 
+/// What the phases above the default aim change is put back bit for bit where they made a
+/// crossing (`Stage::save`, `Stage::restore`): after the ratios' phase, the ODT's rounds and
+/// centroid rounds have flipped edges and moved vertices, the stage is the one saved — its
+/// positions, normals, triangles, twins, first corners and valences — and runs on from it as
+/// a fresh stage over the same mesh would.
+#[test]
+fn the_phases_above_the_default_aim_are_undone_bit_for_bit() {
+    let side = 12u32;
+    let mut seed = 7u64;
+    let mut rnd = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let pos: Vec<DVec3> = (0..side * side)
+        .map(|k| {
+            let (i, j) = ((k / side) as f64, (k % side) as f64);
+            let inner = k / side > 0 && k / side < side - 1 && k % side > 0 && k % side < side - 1;
+            let shake = if inner { 0.3 } else { 0.0 };
+            DVec3::new(
+                i - 0.5 * j + shake * (rnd() - 0.5),
+                0.866 * j + shake * (rnd() - 0.5),
+                0.0,
+            )
+        })
+        .collect();
+    let tri = grid_triangles(side);
+    let limits = Limits {
+        angle: 0.524,
+        rounds: 6,
+        insert_fraction: 0.05,
+        tolerance: 0.1,
+        ratio: 1.0,
+    };
+    let mut case = Case::new(pos.clone(), tri.clone());
+    let fixed = 0;
+    let mut stage = case.stage(fixed, None);
+    let saved = stage.save();
+    let (twin, out, valence) = (stage.twin.clone(), stage.out.clone(), stage.valence.clone());
+    let mut report = Report::default();
+    let (mean, _) = stage.survey(0.5);
+    let (higher, _) = stage.ratio_phases(
+        &limits,
+        CENTROID_ROUNDS,
+        mean,
+        &mut Plane,
+        None,
+        &mut onto_plane,
+        &mut report,
+    );
+    assert!(higher > mean + 0.005, "{mean} → {higher}");
+    assert!(
+        report.smoothing_moves > 0 && report.polish_rounds > 0,
+        "{report:?}"
+    );
+    assert_ne!(*stage.pos, pos);
+    stage.restore(saved);
+    assert_eq!(*stage.pos, pos);
+    assert_eq!(*stage.tri, tri);
+    assert!(stage.normal.iter().all(|&n| n == DVec3::Z));
+    assert_eq!(
+        (&stage.twin, &stage.out, &stage.valence),
+        (&twin, &out, &valence)
+    );
+    assert_twins(&stage);
+}
+
 #[test]
 fn a_strip_of_needles_is_lifted_and_the_topology_stays() {
     // A strip of 17° needles between two rows of free vertices (flips, moves and
