@@ -831,8 +831,7 @@ fn the_ratio_phases_stop_at_their_aim() {
 /// What the phases above the default aim change is put back bit for bit where they made a
 /// crossing (`Stage::save`, `Stage::restore`): after the ratios' phase, the ODT's rounds and
 /// centroid rounds have flipped edges and moved vertices, the stage is the one saved — its
-/// positions, normals, triangles, twins, first corners and valences — and runs on from it as
-/// a fresh stage over the same mesh would.
+/// positions, normals, triangles, twins, first corners and valences.
 #[test]
 fn the_phases_above_the_default_aim_are_undone_bit_for_bit() {
     let side = 12u32;
@@ -864,8 +863,7 @@ fn the_phases_above_the_default_aim_are_undone_bit_for_bit() {
         ratio: 1.0,
     };
     let mut case = Case::new(pos.clone(), tri.clone());
-    let fixed = 0;
-    let mut stage = case.stage(fixed, None);
+    let mut stage = case.stage(0, None);
     let saved = stage.save();
     let (twin, out, valence) = (stage.twin.clone(), stage.out.clone(), stage.valence.clone());
     let mut report = Report::default();
