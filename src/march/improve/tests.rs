@@ -835,13 +835,7 @@ fn the_ratio_phases_stop_at_their_aim() {
 #[test]
 fn the_phases_above_the_default_aim_are_undone_bit_for_bit() {
     let side = 12u32;
-    let mut seed = 7u64;
-    let mut rnd = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rnd = crate::testing::uniform(7);
     let pos: Vec<DVec3> = (0..side * side)
         .map(|k| {
             let (i, j) = ((k / side) as f64, (k % side) as f64);

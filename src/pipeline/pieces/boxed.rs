@@ -15,7 +15,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{
-    CROSS_SINE, MIN_LOOP, NoCut, Placed, Slabs, Survey, cut_into_slabs, local_step, slab_inputs,
+    CROSS_SINE, MIN_LOOP, NoCut, Placed, Slabs, Survey, cut_into_slabs, local_step, near_all,
+    slab_inputs,
 };
 use crate::march::{MarchInput, MarchSettings};
 use crate::mesh::Mesh;
@@ -270,19 +271,6 @@ fn trace(
     Some(Piece {
         points,
         closed: polygon.closed,
-    })
-}
-
-/// Every point of `a` within `reach` of the polyline `b` (closed: its last point joined to
-/// its first).
-fn near_all(a: &[DVec3], b: &[DVec3], closed: bool, reach: f64) -> bool {
-    let segments = b.len().saturating_sub(usize::from(!closed));
-    a.iter().all(|&p| {
-        b.len() == 1 && b[0].distance(p) <= reach
-            || (0..segments).any(|i| {
-                let (u, v) = (b[i], b[(i + 1) % b.len()]);
-                (u + nearest_on_segment(p, u, v) * (v - u)).distance(p) <= reach
-            })
     })
 }
 

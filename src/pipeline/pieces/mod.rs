@@ -542,7 +542,9 @@ fn cut(
                 return Err(refuse("the surface meets the plane at less than 30°"));
             }
         }
-        if !follows(&traced, coarse_loop, reach) || !follows(coarse_loop, &traced, reach) {
+        if !near_all(&traced, coarse_loop, true, reach)
+            || !near_all(coarse_loop, &traced, true, reach)
+        {
             return Err(refuse("a traced loop does not follow its coarse section"));
         }
         loops.push(traced);
@@ -576,13 +578,17 @@ pub(super) fn local_step(s: &mut dyn Surface, sizing: &Sizing, p: DVec3) -> f64 
     sizing.size(s, &sp, None).h
 }
 
-/// Every vertex of `a` within `reach` of the closed polyline `b`.
-fn follows(a: &[DVec3], b: &[DVec3], reach: f64) -> bool {
+/// Every point of `a` within `reach` of the polyline `b` (closed: its last point joined to
+/// its first). The closed case's traced loops against the survey's sections, and the boxed
+/// case's cut curves, which may end on the box's faces.
+pub(super) fn near_all(a: &[DVec3], b: &[DVec3], closed: bool, reach: f64) -> bool {
+    let segments = b.len().saturating_sub(usize::from(!closed));
     a.iter().all(|&p| {
-        (0..b.len()).any(|i| {
-            let (u, v) = (b[i], b[(i + 1) % b.len()]);
-            (u + nearest_on_segment(p, u, v) * (v - u)).distance(p) <= reach
-        })
+        b.len() == 1 && b[0].distance(p) <= reach
+            || (0..segments).any(|i| {
+                let (u, v) = (b[i], b[(i + 1) % b.len()]);
+                (u + nearest_on_segment(p, u, v) * (v - u)).distance(p) <= reach
+            })
     })
 }
 
