@@ -11,3 +11,15 @@ pub(crate) fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
         (seed.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
     }
 }
+
+/// The plane z = 0 with ∇f = +z.
+pub(crate) struct Plane;
+
+impl crate::surface::Surface for Plane {
+    fn value_gradient(&mut self, p: glam::DVec3) -> crate::surface::ValueGrad {
+        crate::surface::ValueGrad {
+            value: p.z,
+            gradient: glam::DVec3::Z,
+        }
+    }
+}

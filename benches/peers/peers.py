@@ -253,6 +253,12 @@ def main():
         action="append",
         help="also run surfc with this `radius_ratio:` (its quality stage's aim); repeatable",
     )
+    ap.add_argument(
+        "--calibrate-to-aim",
+        action="store_true",
+        help="calibrate the peers to the mean edge of surfc's last `--radius-ratio` row "
+        "(default: of its default row)",
+    )
     args = ap.parse_args()
     binary = str((ROOT / args.surfc) if not os.path.isabs(args.surfc) else args.surfc)
 
@@ -260,8 +266,8 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.only or ["sphere", "torus"]:
             step = SURFACES[name]["step"] * args.scale
-            # surfc at the default aim (its mean edge is what the peers are calibrated to),
-            # then at each `--radius-ratio`.
+            # surfc at the default aim (its mean edge is what the peers are calibrated to,
+            # or the last aim's with `--calibrate-to-aim`), then at each `--radius-ratio`.
             target = None
             for aim in [None, *(args.radius_ratio or [])]:
                 runs = [
@@ -270,7 +276,8 @@ def main():
                 seconds = f"{median(r[0] for r in runs):.3f} ({median(r[1] for r in runs):.3f})"
                 label = f"surfc, step {step:g}" + ("" if aim is None else f", radius_ratio {aim:g}")
                 rows.append((name, label, seconds, runs[0][2]))
-                target = target or runs[0][2]["mean_edge"]
+                if target is None or args.calibrate_to_aim:
+                    target = runs[0][2]["mean_edge"]
 
             # Each peer at the parameter that gives surfc's mean edge.
             for peer, run, knob in [

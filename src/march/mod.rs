@@ -14,7 +14,9 @@
 //! After the march the quality stage (`improve`) flips edges to the restricted Delaunay
 //! condition, smooths free vertices on the surface and inserts off-centres where a triangle
 //! stays below `MarchSettings::quality_angle`, keeping the topology and polygon vertices; the
-//! verification then checks the improved mesh.
+//! verification then checks the improved mesh. [`improve_patch`] gives a part of a finished
+//! mesh the stage and the verification again (the seams of joined slabs, whose polygon
+//! vertices are free once the slabs are one mesh).
 //!
 //! Edges follow a local step h(p) ≤ δ from the surface's curvature and thickness
 //! (`survey::sizing`) unless the input asks for the paper's uniform step. Every finished mesh
@@ -40,6 +42,7 @@ pub use ring::{FrontId, NodeId, PointId};
 pub use settings::MarchSettings;
 
 use crate::mesh::Mesh;
+use crate::mesh::edges::Edges;
 use crate::mesh::progress::Tally;
 use crate::solve::SurfacePointError;
 use crate::surface::{Fork, Surface};
@@ -347,6 +350,56 @@ pub fn march_verified(
     progress: Option<&std::sync::atomic::AtomicU64>,
 ) -> Result<Marched, MarchError> {
     march_verified_capped(surface, fork, input, settings, progress, &[])
+}
+
+/// A part of a finished, verified mesh to go through the quality stage again: where slabs
+/// marched apart were joined (`pipeline::pieces`), the cut polygons' vertices, which neither
+/// slab could move, are free here.
+pub struct Patch {
+    /// Its vertices below `fixed` stay where they are (the patch's rim, points on the box);
+    /// every open edge of the patch lies between two of them.
+    pub mesh: Mesh,
+    pub fixed: usize,
+    /// Per vertex: the local step there.
+    pub h: Vec<f64>,
+}
+
+/// The quality stage (towards `settings`' aim, in `input`'s box) over `patch`, then the
+/// verification of what it made: the improved patch — its first `fixed` vertices the same,
+/// bit for bit, in the same order; the others moved, and some added or removed — if the
+/// verification finds no flaw and no chord error above the tolerance, else None (the patch
+/// as it was is the caller's to keep). Crossings between the patch and the rest of the mesh
+/// are the caller's to check.
+pub fn improve_patch(
+    surface: &mut dyn Surface,
+    fork: Option<&Fork<'_>>,
+    patch: Patch,
+    input: &MarchInput,
+    settings: &MarchSettings,
+) -> Option<Mesh> {
+    let tolerance = input.tolerance.unwrap_or(settings.tolerance * input.step);
+    let n = patch.mesh.vertices.len();
+    // The patch's open edges, each between two fixed vertices: the verification allows them
+    // as it allows a given polygon's.
+    let mut polygon_edges: Vec<[u32; 2]> = Edges::new(n, &patch.mesh.triangles)
+        .runs()
+        .filter(|(_, _, run)| run.len() == 1)
+        .map(|(a, b, _)| [a, b])
+        .collect();
+    polygon_edges.sort_unstable();
+    let mut m = marcher::Triangulation {
+        mesh: patch.mesh,
+        border: vec![false; n],
+        fixed: patch.fixed,
+        polygon_edges,
+        h: patch.h,
+        wanted: Vec::new(),
+        floored: None,
+    };
+    improve(surface, fork, &mut m, input, settings, tolerance);
+    let verdict = verify::verify(surface, &m, tolerance, input.step, &settings.surface_point);
+    (verdict.wrong.is_empty() && verdict.coarse.is_empty() && surface.fault().is_none())
+        .then_some(m.mesh)
 }
 
 /// [`march_verified`] with the local step bounded by `caps` from the start (graded from
@@ -832,5 +885,102 @@ fn improve(
             )
         }),
         poor: report.poor,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::quality;
+    use crate::testing::Plane;
+
+    /// A patch of the plane: an 8 × 8 lattice of unit triangles whose inner vertices are
+    /// shaken by up to 0.2, its rim (the lattice's border) fixed and first.
+    fn shaken_patch() -> Patch {
+        let n = 8;
+        let rim = |i: usize, j: usize| i == 0 || j == 0 || i == n - 1 || j == n - 1;
+        let cells: Vec<(usize, usize)> = (0..n).flat_map(|j| (0..n).map(move |i| (i, j))).collect();
+        let order: Vec<(usize, usize)> = cells
+            .iter()
+            .filter(|&&(i, j)| rim(i, j))
+            .chain(cells.iter().filter(|&&(i, j)| !rim(i, j)))
+            .copied()
+            .collect();
+        let index = |i: usize, j: usize| order.iter().position(|&c| c == (i, j)).unwrap() as u32;
+        let mut draw = crate::testing::uniform(41);
+        let vertices: Vec<DVec3> = order
+            .iter()
+            .map(|&(i, j)| {
+                let p = DVec3::new(
+                    i as f64 + 0.5 * (j % 2) as f64,
+                    j as f64 * 0.75f64.sqrt(),
+                    0.0,
+                );
+                if rim(i, j) {
+                    p
+                } else {
+                    p + 0.2 * DVec3::new(2.0 * draw() - 1.0, 2.0 * draw() - 1.0, 0.0)
+                }
+            })
+            .collect();
+        let mut triangles = Vec::new();
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                let [a, b, c, d] = [
+                    index(i, j),
+                    index(i + 1, j),
+                    index(i, j + 1),
+                    index(i + 1, j + 1),
+                ];
+                if j % 2 == 0 {
+                    triangles.extend([[a, b, c], [b, d, c]]);
+                } else {
+                    triangles.extend([[a, b, d], [a, d, c]]);
+                }
+            }
+        }
+        let fixed = order.iter().filter(|&&(i, j)| rim(i, j)).count();
+        Patch {
+            mesh: Mesh {
+                normals: vec![DVec3::Z; vertices.len()],
+                vertices,
+                triangles,
+                sides: Vec::new(),
+            },
+            fixed,
+            h: vec![1.0; n * n],
+        }
+    }
+
+    fn round() -> MarchSettings {
+        MarchSettings {
+            quality_ratio: 1.0,
+            ..MarchSettings::default()
+        }
+    }
+
+    #[test]
+    fn a_patch_is_polished_with_its_rim_kept_bit_for_bit() {
+        let patch = shaken_patch();
+        let (before, rim) = (
+            quality::quality(&patch.mesh).radius_ratio_mean,
+            patch.mesh.vertices[..patch.fixed].to_vec(),
+        );
+        let input = MarchInput::from_point(1.0, DVec3::ZERO);
+        let polished = improve_patch(&mut Plane, None, patch, &input, &round()).expect("verified");
+        let after = quality::quality(&polished).radius_ratio_mean;
+        assert!(after > before + 0.01, "{before} → {after}");
+        assert_eq!(&polished.vertices[..rim.len()], &rim[..]);
+        assert!(polished.vertices.iter().all(|v| v.z == 0.0));
+    }
+
+    /// Two rim vertices swapped: triangles along the rim fold over, which no move of the free
+    /// vertices mends; the verification refuses the patch.
+    #[test]
+    fn a_patch_left_folded_is_refused() {
+        let mut patch = shaken_patch();
+        patch.mesh.vertices.swap(1, 2);
+        let input = MarchInput::from_point(1.0, DVec3::ZERO);
+        assert!(improve_patch(&mut Plane, None, patch, &input, &round()).is_none());
     }
 }

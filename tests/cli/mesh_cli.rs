@@ -211,9 +211,10 @@ fn box_only_mesh_reports_components_and_warnings() {
 /// An aim above the default on a mesh large enough to be cut into slabs: the centroid's
 /// rounds lift it past what one round and the ratios' phase reached (the sphere 0.9844 with
 /// `radius_ratio: 1` before), and the cut is kept (the joined slabs were held to the aim and
-/// refused, and the whole march made less).
+/// refused, and the whole march made less), into slabs four times smaller than the default's
+/// whose seams are polished once joined (`pipeline::pieces::seams`).
 #[test]
-fn a_high_radius_ratio_keeps_the_slabs_and_lifts_the_mean() {
+fn a_high_radius_ratio_cuts_finer_slabs_polishes_their_seams_and_lifts_the_mean() {
     let dir = cli::scratch("mesh-cli-high-radius-ratio");
     let run = |aim: &str| {
         let text = format!(
@@ -231,19 +232,28 @@ fn a_high_radius_ratio_keeps_the_slabs_and_lifts_the_mean() {
         (
             m["radius_ratio_mean"].as_f64().unwrap(),
             m["pieces"].as_u64().unwrap_or(1),
+            m["min_angle_deg"].as_f64().unwrap(),
         )
     };
-    let (default, default_pieces) = run("");
+    let (default, default_pieces, _) = run("");
+    assert_eq!(
+        default_pieces, 2,
+        "about 150 k triangles: two slabs of at most 200 k"
+    );
     for aim in ["radius_ratio: 0.995;", "radius_ratio: 1;"] {
-        let (high, pieces) = run(aim);
+        let (high, pieces, angle) = run(aim);
         eprintln!(
-            "sphere at step 0.03: default {default:.4} in {default_pieces} slab(s), {aim} {high:.4} in {pieces}"
+            "sphere at step 0.03: default {default:.4} in {default_pieces} slab(s), {aim} {high:.4} in {pieces}, smallest angle {angle:.1}°"
         );
-        assert_eq!(pieces, default_pieces, "{aim}: the cut is kept");
+        // Slabs of a quarter of the default's triangles: four (a power of two).
+        assert_eq!(pieces, 4, "{aim}: the cut is kept, finer");
         assert!(
             high >= 0.992 && high > default + 0.004,
             "{aim}: {high} against {default}"
         );
+        // Unpolished, the seams' triangles fell to 35.0° (the slabs' own, away from the
+        // cuts, are above 38°).
+        assert!(angle >= 37.0, "{aim}: the seams' smallest angle {angle}°");
     }
 }
 

@@ -16,7 +16,8 @@
 //! `SURFC_SWEEP_PIECES=N` marches each shape as `surfc mesh` does (`pipeline::pieces`), with
 //! a component above about N triangles cut into slabs (say 2000: most are cut);
 //! `SURFC_SWEEP_ONLY=i` meshes only shape #i of the run (to trace it; `SURFC_SWEEP_OBJ=path`
-//! also writes its mesh to look at). The figures (right, refused, wrong, time) are printed,
+//! also writes its mesh to look at); `SURFC_SWEEP_RATIO=R` gives every march the quality
+//! stage's aim R (a block's `radius_ratio:`; the boxed slabs' sweep below takes it too). The figures (right, refused, wrong, time) are printed,
 //! and the quality of the right meshes against issue 13's bars (smallest angle ≥ 30°, mean
 //! radius ratio ≥ 0.97): each mesh's figures and how many meet each bar. Both bars are
 //! asserted for every right mesh.
@@ -134,6 +135,17 @@ struct Tally {
     wrong: Vec<String>,
 }
 
+/// The default settings, with the quality stage's aim `SURFC_SWEEP_RATIO` where that is set
+/// (a block's `radius_ratio:`; above the default a component is cut into finer slabs whose
+/// seams are polished, `pipeline::pieces`).
+fn aimed_settings() -> MarchSettings {
+    let defaults = MarchSettings::default();
+    MarchSettings {
+        quality_ratio: env_number("SURFC_SWEEP_RATIO").unwrap_or(defaults.quality_ratio),
+        ..defaults
+    }
+}
+
 /// The number in the environment variable `name`, if it is set and one.
 fn env_number<T: std::str::FromStr>(name: &str) -> Option<T> {
     std::env::var(name).ok()?.parse().ok()
@@ -160,13 +172,14 @@ fn generated_shapes_are_meshed_right_or_refused() {
     // triangles cut into slabs (as many as `pieces::march` makes of them by default) whose
     // cut curves are traced and shared.
     let pieces_above: Option<u64> = env_number("SURFC_SWEEP_PIECES");
+    let aimed = aimed_settings();
     let settings = match pieces_above {
         Some(above) => MarchSettings {
             pieces_above: above,
             piece_triangles: above,
-            ..MarchSettings::default()
+            ..aimed
         },
-        None => MarchSettings::default(),
+        None => aimed,
     };
     let mut cut = 0;
     let started = std::time::Instant::now();
@@ -483,7 +496,7 @@ fn boxed_slabs_mesh_what_the_whole_march_in_the_box_meshes() {
     let slab_settings = MarchSettings {
         pieces_above: 500,
         piece_triangles: 500,
-        ..MarchSettings::default()
+        ..aimed_settings()
     };
     let extent = |m: &surfc::mesh::Mesh| {
         m.vertices.iter().fold(

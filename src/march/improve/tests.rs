@@ -5,6 +5,7 @@ use super::fan::Fan;
 use super::shape::radius_ratio;
 use super::*;
 use crate::surface::{Fork, ValueGrad};
+use crate::testing::Plane;
 
 /// `Stage::new` over a mesh of several of its parallel blocks (`TWIN_BLOCK` vertices):
 /// a grid whose vertex numbers scatter neighbours across the blocks, with holes (open
@@ -207,18 +208,6 @@ fn grid_triangles(side: u32) -> Vec<[u32; 3]> {
         }
     }
     tri
-}
-
-/// The plane z = 0 with ∇f = +z.
-struct Plane;
-
-impl Surface for Plane {
-    fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
-        ValueGrad {
-            value: p.z,
-            gradient: DVec3::Z,
-        }
-    }
 }
 
 fn onto_plane(_: &mut dyn Surface, q: DVec3) -> Option<(DVec3, DVec3)> {
