@@ -812,10 +812,12 @@ fn march_slabs(
     drop(parts);
     let seams::Polished { mesh, on, reach } =
         seams::polish(fork, input, settings, mesh, on, slabs.bbox, (axis, planes));
-    // Crossings are looked for as far from the planes as the polished seams reach, and a
+    // Crossings are looked for as far from the planes as polished seams reach, and a
     // triangle's longest edge beyond: a triangle that crosses one of the patch's has a
     // corner there.
-    let reach = (BAND * input.step).max(reach + longest_edge(&mesh));
+    let reach = reach.map_or(BAND * input.step, |r| {
+        (BAND * input.step).max(r + longest_edge(&mesh))
+    });
     // The topology and the checks after it need only the mesh: side by side on the pool.
     let (topo, (crossing, shapes)) = rayon::join(
         || topology(&mesh),

@@ -38,13 +38,14 @@ pub(super) struct Polished {
     /// The cut polygons' vertices, and every vertex of the patch that may have moved (where
     /// the join's angle check looks).
     pub on: Vec<bool>,
-    /// The farthest a vertex of the patch lies from the nearest plane, along the axis.
-    pub reach: f64,
+    /// The farthest a vertex of the polished patch lies from the nearest plane, along the
+    /// axis; None where the seams are as joined.
+    pub reach: Option<f64>,
 }
 
 /// The joined `mesh` with its seams polished; `on` marks the cut polygons' vertices (and
 /// in a box the border polygons', which lie on the box and stay). The mesh as joined where
-/// no oracle can be made or the patch's verification refuses it (`reach` 0 then).
+/// no oracle can be made or the patch's verification refuses it.
 pub(super) fn polish(
     fork: &Fork<'_>,
     input: &MarchInput,
@@ -57,7 +58,7 @@ pub(super) fn polish(
     let unchanged = |mesh, on| Polished {
         mesh,
         on,
-        reach: 0.0,
+        reach: None,
     };
     if settings.quality_angle <= 0.0 || settings.quality_ratio <= DEFAULT_QUALITY_RATIO {
         return unchanged(mesh, on);
@@ -139,7 +140,7 @@ pub(super) fn polish(
     };
     let patch_settings = MarchSettings {
         quality_ratio: SEAM_AIM,
-        ..settings.clone()
+        ..*settings
     };
     let Some(polished) = march::improve_patch(
         &mut surface,
@@ -210,6 +211,6 @@ pub(super) fn polish(
     Polished {
         mesh: out,
         on: out_on,
-        reach,
+        reach: Some(reach),
     }
 }
