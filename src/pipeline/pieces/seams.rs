@@ -132,7 +132,11 @@ pub(super) fn polish(
             sides: Vec::new(),
         },
         fixed,
-        h: lengths.iter().map(|&(sum, n)| sum / n as f64).collect(),
+        // (A vertex in no triangle, which a cut polygon's need not be in, keeps the step.)
+        h: lengths
+            .iter()
+            .map(|&(sum, n)| if n > 0 { sum / n as f64 } else { input.step })
+            .collect(),
     };
     let patch_input = MarchInput {
         bbox,
