@@ -112,6 +112,15 @@ pub struct MarchSettings {
     pub pieces_max: u32,
 }
 
+impl MarchSettings {
+    /// Whether rounder triangles than the default's are asked for (a `radius_ratio:` above
+    /// `DEFAULT_QUALITY_RATIO`): the quality stage's second pass (`improve`), and finer
+    /// slabs with polished seams (`pipeline::pieces`).
+    pub fn above_default_aim(&self) -> bool {
+        self.quality_ratio > DEFAULT_QUALITY_RATIO
+    }
+}
+
 impl Default for MarchSettings {
     fn default() -> Self {
         MarchSettings {

@@ -174,16 +174,15 @@ pub(super) fn across(
             k = far;
             continue;
         }
-        let s = (k + 1..far)
-            .map(|j| j as f64 * probe)
-            .find(|&s| {
-                let on = on_face(t, form, p + s * side);
-                if on {
-                    inside = s;
-                }
-                !on
-            })
-            .unwrap_or(far as f64 * probe);
+        let mut s = far as f64 * probe;
+        for j in k + 1..far {
+            let at = j as f64 * probe;
+            if !on_face(t, form, p + at * side) {
+                s = at;
+                break;
+            }
+            inside = at;
+        }
         // The face ends between `inside` and s.
         let mut outside = s;
         for _ in 0..BISECT {

@@ -342,7 +342,7 @@ impl Survey {
         }
         // Rounder triangles asked for: slabs ROUNDER_SLABS times smaller (their seams are
         // polished then, `seams`).
-        let per_slab = if settings.quality_ratio > DEFAULT_QUALITY_RATIO {
+        let per_slab = if settings.above_default_aim() {
             settings.piece_triangles / ROUNDER_SLABS
         } else {
             settings.piece_triangles
@@ -826,12 +826,7 @@ fn march_slabs(
             (crossing, cut_shapes(&mesh, &on))
         },
     );
-    let on_the_box = |k: u32| {
-        let v = mesh.vertices[k as usize];
-        slabs
-            .bbox
-            .is_some_and(|(lo, hi)| v.cmpeq(lo).any() || v.cmpeq(hi).any())
-    };
+    let on_the_box = |k: u32| on_box(mesh.vertices[k as usize], slabs.bbox);
     if !topo.non_manifold_edges.is_empty()
         || !topo.misoriented_edges.is_empty()
         || topo.degenerate_triangles > 0
@@ -904,6 +899,12 @@ fn march_slabs(
         planes: Some((axis, planes.to_vec())),
         topology: Some(topo),
     })
+}
+
+/// Whether `v` lies on a face of `bbox` (bit for bit: the border curves keep the face's
+/// coordinate exactly).
+fn on_box(v: DVec3, bbox: Option<(DVec3, DVec3)>) -> bool {
+    bbox.is_some_and(|(lo, hi)| v.cmpeq(lo).any() || v.cmpeq(hi).any())
 }
 
 /// The longest edge of `mesh`.

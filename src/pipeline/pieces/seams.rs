@@ -15,7 +15,6 @@
 
 use glam::DVec3;
 
-use crate::march::settings::DEFAULT_QUALITY_RATIO;
 use crate::march::{self, MarchInput, MarchSettings, Patch};
 use crate::mesh::Mesh;
 use crate::surface::Fork;
@@ -61,14 +60,13 @@ pub(super) fn polish(
         on,
         reach: None,
     };
-    if settings.quality_angle <= 0.0 || settings.quality_ratio <= DEFAULT_QUALITY_RATIO {
+    if settings.quality_angle <= 0.0 || !settings.above_default_aim() {
         return unchanged(mesh, on);
     }
     let Some(mut surface) = fork() else {
         return unchanged(mesh, on);
     };
     let n = mesh.vertices.len();
-    let on_the_box = |v: DVec3| bbox.is_some_and(|(lo, hi)| v.cmpeq(lo).any() || v.cmpeq(hi).any());
     // Rings from the cut vertices: a pass over the triangles a ring.
     let mut ring = vec![u32::MAX; n];
     for (k, &o) in on.iter().enumerate() {
@@ -86,7 +84,7 @@ pub(super) fn polish(
         }
     }
     let free: Vec<bool> = (0..n)
-        .map(|k| ring[k] <= RINGS && !on_the_box(mesh.vertices[k]))
+        .map(|k| ring[k] <= RINGS && !super::on_box(mesh.vertices[k], bbox))
         .collect();
     let (patch_tris, rest): (Vec<[u32; 3]>, Vec<[u32; 3]>) = mesh
         .triangles
