@@ -8,6 +8,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::Mesh;
+use super::height_fields::NOT_CERTIFIED;
 use super::quality::{max_vertex_error, quality};
 use super::topology::{Topology, topology};
 use crate::surface::Surface;
@@ -379,7 +380,48 @@ pub fn intersecting_pairs_across(mesh: &Mesh, groups: Option<&[u32]>) -> Vec<[u3
 
 /// `intersecting_pairs_across` of the triangles `tris` over the vertices `vs`, for a mesh
 /// still being made (the quality stage's, before it is a `Mesh`).
+///
+/// The search is first made over the triangles that `height_fields` leaves, skipping pairs
+/// of one certified patch as well as of one group; where that finds a pair, it is made
+/// again over every triangle, so the pairs returned are always the whole search's (every
+/// pair it finds is one the first search looks at: the two triangles are left, and their
+/// patches or groups differ).
 pub fn crossing_pairs(vs: &[DVec3], tris: &[[u32; 3]], groups: Option<&[u32]>) -> Vec<[u32; 2]> {
+    if tris.len() >= CERTIFY_FROM
+        && let Some(left) = super::height_fields::uncertified(vs, tris)
+    {
+        // A certified patch's group: numbered after every group given.
+        let after = groups.map_or(0, |g| {
+            g.iter()
+                .filter(|&&x| x != ANY_GROUP)
+                .max()
+                .map_or(0, |&m| u64::from(m) + 1)
+        });
+        if after + u64::from(left.patches) < u64::from(ANY_GROUP) {
+            let sub: Vec<[u32; 3]> = left.triangles.iter().map(|&t| tris[t as usize]).collect();
+            let sub_groups: Vec<u32> = left
+                .triangles
+                .iter()
+                .zip(&left.patch)
+                .map(|(&t, &p)| match p {
+                    NOT_CERTIFIED => groups.map_or(ANY_GROUP, |g| g[t as usize]),
+                    p => (after + u64::from(p)) as u32,
+                })
+                .collect();
+            if grid_pairs(vs, &sub, Some(&sub_groups)).is_empty() {
+                return Vec::new();
+            }
+        }
+    }
+    grid_pairs(vs, tris, groups)
+}
+
+/// Triangles from which `crossing_pairs` first tries the certificate (below, the search is
+/// cheap anyway).
+const CERTIFY_FROM: usize = 2048;
+
+/// The search of `crossing_pairs` over every triangle.
+pub(super) fn grid_pairs(vs: &[DVec3], tris: &[[u32; 3]], groups: Option<&[u32]>) -> Vec<[u32; 2]> {
     debug_assert!(groups.is_none_or(|g| g.len() == tris.len()));
     let slot = |i: u32| {
         let corners = tris[i as usize];

@@ -5,6 +5,7 @@
 pub mod bits;
 pub mod check;
 pub mod edges;
+mod height_fields;
 pub mod net;
 pub mod progress;
 pub mod quality;
