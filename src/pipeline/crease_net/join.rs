@@ -25,7 +25,10 @@ pub(super) fn check_joined(mesh: &Mesh, groups: &[u32]) -> Result<(), CreaseErro
             .sum::<DVec3>()
             / 3.0
     };
-    let mut uses: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
+    // Each edge's uses each way, keyed by (lower, higher) vertex as one word (a fast hash
+    // and the room made at once: a million edges on a CAD part).
+    let mut uses: HashMap<u64, (u32, u32), BitsHash> =
+        HashMap::with_capacity_and_hasher(mesh.triangles.len() * 3 / 2 + 16, BitsHash);
     for (n, t) in mesh.triangles.iter().enumerate() {
         let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
         let normals: DVec3 = t.iter().map(|&k| mesh.normals[k as usize]).sum();
@@ -38,7 +41,8 @@ pub(super) fn check_joined(mesh: &Mesh, groups: &[u32]) -> Result<(), CreaseErro
         }
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
-            let entry = uses.entry((a.min(b), a.max(b))).or_insert((0, 0));
+            let key = (u64::from(a.min(b)) << 32) | u64::from(a.max(b));
+            let entry = uses.entry(key).or_insert((0, 0));
             if a < b {
                 entry.0 += 1;
             } else {
