@@ -367,6 +367,13 @@ pub fn intersecting_pairs(mesh: &Mesh) -> Vec<[u32; 2]> {
     intersecting_pairs_across(mesh, None)
 }
 
+/// `intersecting_pairs` by the search alone, every triangle in its grids, without the
+/// certificate of `mesh::height_fields`: the same pairs, for the tests and benchmarks that
+/// compare the two.
+pub fn intersecting_pairs_searched(mesh: &Mesh) -> Vec<[u32; 2]> {
+    grid_pairs(&mesh.vertices, &mesh.triangles, None)
+}
+
 /// A triangle's group in `intersecting_pairs_across` that is tested against every triangle.
 pub const ANY_GROUP: u32 = u32::MAX;
 
