@@ -187,17 +187,25 @@ fn across_patches(vs: &[DVec3], tris: &[[u32; 3]], patch: &[u32], certified: &[b
         true
     };
     let mut cells = vec![EMPTY; shape.iter().product()];
+    // Triangles far larger than the mean (a soup, not a march) could make the marking
+    // quadratic: past a budget of cells, every triangle is left to the search (still
+    // skipping pairs of one certified patch, which is sound whatever the grid).
+    let mut budget = 64 * tris.len() + MAX_CELLS;
     for (t, &p) in tris.iter().zip(patch) {
         let own = if certified[p as usize] { p } else { SHARED };
-        cells_of(t, &mut |c| {
+        let within = cells_of(t, &mut |c| {
             let at = &mut cells[c];
             *at = if *at == EMPTY || *at == own {
                 own
             } else {
                 SHARED
             };
-            true
+            budget = budget.saturating_sub(1);
+            budget > 0
         });
+        if !within {
+            return left((0..tris.len() as u32).collect());
+        }
     }
     let triangles: Vec<u32> = (0..tris.len() as u32)
         .into_par_iter()
@@ -245,7 +253,9 @@ fn boundary_certified(class: u8, segs: &[[u32; 2]], vs: &[DVec3]) -> bool {
     if !segments_apart(segs, &ends) {
         return false;
     }
-    let strips = Strips::new(&ends);
+    let Some(strips) = Strips::new(&ends) else {
+        return false;
+    };
     curves.iter().enumerate().all(|(number, curve)| {
         // The turn at the lowest-leftmost vertex is the curve's (the inner angle there is
         // below π; a straight or folded-back turn there is a touch, refused above).
@@ -277,6 +287,9 @@ fn segments_apart(segs: &[[u32; 2]], ends: &[[DVec2; 2]]) -> bool {
     }
     let shape = (extent / width).to_array().map(|n| n as u64 + 1);
     let cell = |x: f64, axis: usize| (((x - lo[axis]) / width) as u64).min(shape[axis] - 1);
+    // A few cells a segment; far more (segments far longer than the mean) is not a
+    // march's boundary, and is not certified rather than searched at length.
+    let budget = 16 * segs.len() + 4096;
     let mut entries: Vec<(u64, u32)> = Vec::new();
     for (i, [a, b]) in ends.iter().enumerate() {
         let (l, h) = (a.min(*b), a.max(*b));
@@ -284,6 +297,9 @@ fn segments_apart(segs: &[[u32; 2]], ends: &[[DVec2; 2]]) -> bool {
             for y in cell(l.y, 1)..=cell(h.y, 1) {
                 entries.push((x * shape[1] + y, i as u32));
             }
+        }
+        if entries.len() > budget {
+            return false;
         }
     }
     entries.sort_unstable();
@@ -340,7 +356,7 @@ struct Strips {
 }
 
 impl Strips {
-    fn new(ends: &[[DVec2; 2]]) -> Strips {
+    fn new(ends: &[[DVec2; 2]]) -> Option<Strips> {
         let (lo, hi) = ends
             .iter()
             .flatten()
@@ -369,6 +385,10 @@ impl Strips {
         for k in 0..count {
             strips.start[k + 1] += strips.start[k];
         }
+        // Strips a segment: a few, or the boundary is not a march's (and is not certified).
+        if strips.start[count] as usize > 64 * ends.len() + 4096 {
+            return None;
+        }
         let mut fill = strips.start.clone();
         strips.members = vec![0; strips.start[count] as usize];
         for (i, e) in ends.iter().enumerate() {
@@ -377,7 +397,7 @@ impl Strips {
                 fill[k] += 1;
             }
         }
-        strips
+        Some(strips)
     }
 
     fn strip(&self, y: f64) -> usize {
@@ -619,6 +639,30 @@ mod tests {
         assert!(refused >= 50, "{refused} of 60 rounds with a patch refused");
     }
 
+    /// Large triangles across a fine torus (a soup, not a march: each spans most of the
+    /// coarse grid, so every cell is shared): every triangle is left to the search, which
+    /// finds the whole search's pairs.
+    #[test]
+    fn large_triangles_over_a_fine_mesh_give_the_whole_searchs_pairs() {
+        let (mut vs, mut tris) = torus(200, 80);
+        let mut r = uniform(0xb16_5ca1e);
+        for _ in 0..400 {
+            let k = vs.len() as u32;
+            for _ in 0..3 {
+                vs.push(DVec3::new(
+                    6.0 * r() - 3.0,
+                    6.0 * r() - 3.0,
+                    2.0 * r() - 1.0,
+                ));
+            }
+            tris.push([k, k + 1, k + 2]);
+        }
+        let whole = grid_pairs(&vs, &tris, None);
+        assert!(!whole.is_empty());
+        assert_eq!(left(&vs, &tris).len(), tris.len());
+        assert_eq!(crossing_pairs(&vs, &tris, None), whole);
+    }
+
     /// A ramp of one and a half turns whose upper turn dips through the lower: every
     /// triangle faces up (one patch), and its triangles cross. Its boundary is not simple
     /// seen from above, so it is not certified, and the crossings are found.
@@ -713,7 +757,7 @@ mod tests {
         let hole = [p(1.0, 1.0), p(1.0, 3.0), p(3.0, 3.0), p(3.0, 1.0)];
         let ring = |c: &[DVec2]| (0..4).map(|k| [c[k], c[(k + 1) % 4]]).collect::<Vec<_>>();
         let ends: Vec<[DVec2; 2]> = ring(&square).into_iter().chain(ring(&hole)).collect();
-        let strips = Strips::new(&ends);
+        let strips = Strips::new(&ends).expect("a few strips a segment");
         let all = |_| true;
         assert_eq!(strips.winding(&ends, p(0.5, 0.5), all), Some(1));
         assert_eq!(strips.winding(&ends, p(2.0, 2.0), all), Some(0));
