@@ -18,7 +18,7 @@ use std::collections::HashMap;
 
 use super::marcher::Triangulation;
 use crate::mesh::Mesh;
-use crate::mesh::check::{closest_on_triangle, intersecting_pairs};
+use crate::mesh::check::{closest_on_triangle, intersecting_pairs_with_edges};
 use crate::mesh::edges::Edges;
 use crate::solve::surface_point;
 use crate::solve::tolerance::SurfacePointTolerance;
@@ -70,6 +70,8 @@ pub(super) fn verify(
     sp_tol: &SurfacePointTolerance,
 ) -> Verdict {
     let mesh = &m.mesh;
+    // The edges' uses, for the edge flaws and for the crossing check's certificate alike.
+    let edges = Edges::new(mesh.vertices.len(), &mesh.triangles);
     // The crossing check needs only the mesh: on another thread of the pool (`--threads`)
     // while this one evaluates the surface; the flaws are put together in the same order
     // either way.
@@ -77,12 +79,12 @@ pub(super) fn verify(
     let mut v = Verdict::default();
     if rayon::current_num_threads() > 1 {
         rayon::in_place_scope(|s| {
-            s.spawn(|_| pairs = intersecting_pairs(mesh));
-            v = against_surface(surface, m, tolerance, scale, sp_tol);
+            s.spawn(|_| pairs = intersecting_pairs_with_edges(mesh, &edges));
+            v = against_surface(surface, m, &edges, tolerance, scale, sp_tol);
         });
     } else {
-        pairs = intersecting_pairs(mesh);
-        v = against_surface(surface, m, tolerance, scale, sp_tol);
+        pairs = intersecting_pairs_with_edges(mesh, &edges);
+        v = against_surface(surface, m, &edges, tolerance, scale, sp_tol);
     }
     let crossings = pairs.iter().flatten().map(|&t| {
         let t = &mesh.triangles[t as usize];
@@ -180,6 +182,7 @@ fn centroid(mesh: &crate::mesh::Mesh, t: &[u32; 3]) -> DVec3 {
 fn against_surface(
     surface: &mut dyn Surface,
     m: &Triangulation,
+    edges: &Edges,
     tolerance: f64,
     scale: f64,
     sp_tol: &SurfacePointTolerance,
@@ -187,8 +190,6 @@ fn against_surface(
     let mesh = &m.mesh;
     let vs = &mesh.vertices;
     let mut v = Verdict::default();
-    // Edges with their uses, in (lo, hi) order (linear: `mesh::edges`).
-    let edges = Edges::new(vs.len(), &mesh.triangles);
     // An edge may be open between border points and polygon vertices; between two polygon
     // vertices only if it is an edge of a given polygon (a missing triangle at a polygon's
     // corner leaves an open chord between two of them).
@@ -226,7 +227,6 @@ fn against_surface(
         }
         chords.push(at, h, &mut v);
     }
-    drop(edges);
     for t in &mesh.triangles {
         let [a, b, c] = t.map(|k| vs[k as usize]);
         let n = (b - a).cross(c - a);

@@ -8,6 +8,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::Mesh;
+use super::edges::Edges;
 use super::height_fields::NOT_CERTIFIED;
 use super::quality::{max_vertex_error, quality};
 use super::topology::{Topology, topology};
@@ -394,8 +395,24 @@ pub fn intersecting_pairs_across(mesh: &Mesh, groups: Option<&[u32]>) -> Vec<[u3
 /// pair it finds is one the first search looks at: the two triangles are left, and their
 /// patches or groups differ).
 pub fn crossing_pairs(vs: &[DVec3], tris: &[[u32; 3]], groups: Option<&[u32]>) -> Vec<[u32; 2]> {
+    crossing_pairs_over(vs, tris, groups, None)
+}
+
+/// `intersecting_pairs` of a mesh whose edges' uses (`Edges::new` of its vertices and
+/// triangles) are at hand, for the certificate.
+pub fn intersecting_pairs_with_edges(mesh: &Mesh, edges: &Edges) -> Vec<[u32; 2]> {
+    crossing_pairs_over(&mesh.vertices, &mesh.triangles, None, Some(edges))
+}
+
+/// `crossing_pairs`, with the edges' uses where the caller has them.
+fn crossing_pairs_over(
+    vs: &[DVec3],
+    tris: &[[u32; 3]],
+    groups: Option<&[u32]>,
+    edges: Option<&Edges>,
+) -> Vec<[u32; 2]> {
     if tris.len() >= CERTIFY_FROM
-        && let Some(left) = super::height_fields::uncertified(vs, tris)
+        && let Some(left) = super::height_fields::uncertified(vs, tris, edges)
     {
         // A certified patch's group: numbered after every group given.
         let after = groups.map_or(0, |g| {

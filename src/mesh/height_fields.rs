@@ -44,8 +44,9 @@ const MAX_CELLS: usize = 1 << 22;
 
 /// The triangles of `tris` over `vs` that the certificate cannot vouch for, or `None` where
 /// it does not apply (a corner not finite, an edge in more than two triangles or run twice
-/// the same way): then every triangle is left to the exact search.
-pub(super) fn uncertified(vs: &[DVec3], tris: &[[u32; 3]]) -> Option<Left> {
+/// the same way): then every triangle is left to the exact search. `edges`, where given,
+/// are `Edges::new(vs.len(), tris)`.
+pub(super) fn uncertified(vs: &[DVec3], tris: &[[u32; 3]], edges: Option<&Edges>) -> Option<Left> {
     if !vs.par_iter().all(|p| p.is_finite()) {
         return None;
     }
@@ -57,8 +58,15 @@ pub(super) fn uncertified(vs: &[DVec3], tris: &[[u32; 3]]) -> Option<Left> {
             (c, c != NONE && orient_of(vs, c, t) == 1)
         })
         .unzip();
-    let edges = Edges::new(vs.len(), tris);
-    let (patch, patch_class) = patches(&edges, &classes)?;
+    let built;
+    let edges = match edges {
+        Some(edges) => edges,
+        None => {
+            built = Edges::new(vs.len(), tris);
+            &built
+        }
+    };
+    let (patch, patch_class) = patches(edges, &classes)?;
     drop(classes);
     // A patch is certified if each of its triangles turns counter-clockwise, surely, seen
     // along its axis, and its boundary passes `boundary_certified`.
@@ -81,7 +89,6 @@ pub(super) fn uncertified(vs: &[DVec3], tris: &[[u32; 3]]) -> Option<Left> {
             }
         }
     }
-    drop(edges);
     boundary.par_sort_unstable();
     let runs: Vec<&[(u32, [u32; 2])]> = boundary.chunk_by(|x, y| x.0 == y.0).collect();
     let refused: Vec<u32> = runs
@@ -573,7 +580,7 @@ mod tests {
 
     /// The triangles left, with their patches.
     fn left(vs: &[DVec3], tris: &[[u32; 3]]) -> Vec<(u32, u32)> {
-        let left = uncertified(vs, tris).expect("the certificate applies");
+        let left = uncertified(vs, tris, None).expect("the certificate applies");
         left.triangles.into_iter().zip(left.patch).collect()
     }
 
