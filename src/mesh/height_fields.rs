@@ -670,6 +670,44 @@ mod tests {
         assert_eq!(crossing_pairs(&vs, &tris, None), whole);
     }
 
+    /// Random ramps (a strip wound up to two and a half turns about the z axis, rising or
+    /// falling, tilted across by an amount that turns with the angle, jittered): one
+    /// patch seen from above in most, overlapping itself from a turn on, crossing itself
+    /// where the tilt outgrows the rise. The pairs are always the whole search's; both
+    /// ramps that cross and ramps the certificate spares triangles of come up.
+    #[test]
+    fn random_ramps_give_the_whole_searchs_pairs() {
+        let mut r = uniform(0x7a3b_51c9);
+        let (mut crossing, mut certified) = (0, 0);
+        for round in 0..40 {
+            let turns = 0.3 + 2.2 * r();
+            let rise = 0.2 * r() - 0.1;
+            let tilt = 1.5 * r();
+            let (inner, width) = (0.3 + r(), 0.2 + 1.2 * r());
+            let jitter = 0.1 * r() * r();
+            let (nu, nv) = (100 + (r() * 300.0) as usize, 4 + (r() * 20.0) as usize);
+            let (mut vs, tris) = grid(nu, nv, [false, false], |u, v| {
+                let (a, rr) = (turns * TAU * u, inner + width * v);
+                let z = rise * a + tilt * (rr - inner - width / 2.0) * (a / 2.0).cos();
+                DVec3::new(rr * a.cos(), rr * a.sin(), z)
+            });
+            let edge = vs[0].distance(vs[1]);
+            for p in &mut vs {
+                *p += jitter * edge * DVec3::new(r() - 0.5, r() - 0.5, r() - 0.5);
+            }
+            let whole = grid_pairs(&vs, &tris, None);
+            crossing += usize::from(!whole.is_empty());
+            if let Some(l) = uncertified(&vs, &tris, None) {
+                certified += usize::from(l.triangles.len() < tris.len());
+            }
+            assert_eq!(crossing_pairs(&vs, &tris, None), whole, "round {round}");
+        }
+        assert!(
+            crossing >= 12 && certified >= 12,
+            "{crossing} crossing, {certified} with triangles spared"
+        );
+    }
+
     /// A ramp of one and a half turns whose upper turn dips through the lower: every
     /// triangle faces up (one patch), and its triangles cross. Its boundary is not simple
     /// seen from above, so it is not certified, and the crossings are found.
