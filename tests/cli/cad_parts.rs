@@ -322,6 +322,7 @@ fn crease_vertices_slide_to_mend_a_held_angle() {
 /// 29.8° between a crease corner, the crease's next vertex and a free vertex the centroid did
 /// not move; now each is right with every triangle at 30° or more.
 #[test]
+#[ignore = "long run (30 s): `.ci/run` runs it (cargo test -- --ignored)"]
 fn free_vertices_beside_a_crease_corner_move_for_their_angle() {
     let dir = common::cli::scratch("cad-around");
     for (case, multiple) in [(232, 1.0), (68, 3.0), (169, 0.5)] {
@@ -337,6 +338,7 @@ fn free_vertices_beside_a_crease_corner_move_for_their_angle() {
 /// plate, bracket, boss-and-rib part and flange at half and once their smallest feature, every
 /// right mesh with a triangle below 30° says so ("stay below").
 #[test]
+#[ignore = "long run (20 s): `.ci/run` runs it (cargo test -- --ignored)"]
 fn warnings_of_held_triangles_tell_the_slid_mesh() {
     let dir = common::cli::scratch("cad-held");
     for case in [0, 1, 3, 6] {
