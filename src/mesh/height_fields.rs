@@ -23,6 +23,7 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::edges::Edges;
+use super::topology::{find, union};
 
 /// The triangles the certificate leaves to the exact search, ascending, each with its
 /// certified patch's number (below `patches`), or `NOT_CERTIFIED`.
@@ -474,14 +475,6 @@ fn class_of(vs: &[DVec3], t: [u32; 3]) -> u8 {
 /// class; `None` where an edge is in more than two triangles or run twice the same way.
 fn patches(edges: &Edges, classes: &[u8]) -> Option<(Vec<u32>, Vec<u8>)> {
     let mut parent: Vec<u32> = (0..classes.len() as u32).collect();
-    fn root(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            let up = parent[parent[x as usize] as usize];
-            parent[x as usize] = up;
-            x = up;
-        }
-        x
-    }
     for (_, _, uses) in edges.runs() {
         match uses {
             [_] => {}
@@ -491,8 +484,7 @@ fn patches(edges: &Edges, classes: &[u8]) -> Option<(Vec<u32>, Vec<u8>)> {
                 }
                 let (a, b) = (u.triangle, w.triangle);
                 if classes[a as usize] == classes[b as usize] && classes[a as usize] != NONE {
-                    let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-                    parent[ra.max(rb) as usize] = ra.min(rb);
+                    union(&mut parent, a, b);
                 }
             }
             _ => return None,
@@ -502,7 +494,7 @@ fn patches(edges: &Edges, classes: &[u8]) -> Option<(Vec<u32>, Vec<u8>)> {
     let mut class = Vec::new();
     let mut patch = Vec::with_capacity(classes.len());
     for t in 0..classes.len() as u32 {
-        let r = root(&mut parent, t) as usize;
+        let r = find(&mut parent, t) as usize;
         if number[r] == u32::MAX {
             number[r] = class.len() as u32;
             class.push(classes[t as usize]);

@@ -44,13 +44,23 @@ impl Topology {
     }
 }
 
-fn find(parent: &mut [u32], mut x: u32) -> u32 {
+/// The root of `x` in a union–find forest (`parent[r] == r` at a root), halving the path.
+pub(super) fn find(parent: &mut [u32], mut x: u32) -> u32 {
     while parent[x as usize] != x {
         let p = parent[parent[x as usize] as usize];
         parent[x as usize] = p;
         x = p;
     }
     x
+}
+
+/// Joins the sets of `a` and `b`, the smaller root the root of both (so that the roots, and
+/// the numbering read from them, do not depend on the order of the joins' arguments).
+pub(super) fn union(parent: &mut [u32], a: u32, b: u32) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    if ra != rb {
+        parent[ra.max(rb) as usize] = ra.min(rb);
+    }
 }
 
 /// Computes the topology of `mesh`, in time linear in its size (edges from
@@ -80,10 +90,7 @@ pub fn topology(mesh: &Mesh) -> Topology {
                 }
                 // Two of the three edges join all three corners.
                 for (a, b) in [(t[0], t[1]), (t[1], t[2])] {
-                    let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-                    if ra != rb {
-                        parent[ra.max(rb) as usize] = ra.min(rb);
-                    }
+                    union(&mut parent, a, b);
                 }
             }
             (used, parent, degenerate)
