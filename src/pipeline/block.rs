@@ -166,6 +166,14 @@ fn mesh_block(
             .ok()
             .map(|s| Box::new(s) as Box<dyn crate::surface::Surface>)
     };
+    // Fresh oracles of the spine's branches, for the smooth pieces marched on the pool.
+    let branches = || {
+        Builder::new(program, engine)
+            .creased(&def.surface, def.step)
+            .ok()
+            .flatten()
+            .map(|(_, branches)| branches)
+    };
     let mut creased = creases::creased_of(builder, def).map_err(|e| match e {
         Ok(c) => build_failed(c.into()),
         Err(d) => d,
@@ -180,7 +188,7 @@ fn mesh_block(
         def.front,
         def.bounds.is_empty(),
     ) {
-        let out = creases::mesh(c, &mut surface, &fork, def, bbox, progress)?;
+        let out = creases::mesh(c, &mut surface, &fork, &branches, def, bbox, progress)?;
         if out.mesh.triangles.is_empty() && def.start.is_none() {
             return Err(nothing_in_box(def, &mut surface, bbox, &out.warnings));
         }

@@ -18,8 +18,8 @@ use crate::diag::{Diagnostic, messages};
 use crate::mesh::Mesh;
 use crate::mesh::progress::Counts;
 use crate::sema::program::MeshDef;
-use crate::surface::Fork;
 use crate::surface::Surface;
+use crate::surface::{BranchFork, Fork};
 use crate::survey::cells::{Candidates, surface_cells};
 use crate::survey::spine::Creased;
 
@@ -37,7 +37,7 @@ pub struct CreaseCounts {
 const HELP: &str = "give the mesh a `box` that holds the whole surface (and no `front`): a surface with creases is then meshed piece by piece up to its creases";
 
 /// The creased form of the block's surface, or None when its spine has no switch.
-pub(super) fn creased_of(
+pub(crate) fn creased_of(
     builder: &Builder,
     def: &MeshDef,
 ) -> Result<Option<Creased>, Result<CompileError, Diagnostic>> {
@@ -59,6 +59,7 @@ pub(super) fn mesh(
     creased: &mut Creased,
     whole: &mut dyn Surface,
     fork: &Fork<'_>,
+    branches: &BranchFork<'_>,
     def: &MeshDef,
     bbox: (DVec3, DVec3),
     progress: &Counts,
@@ -73,6 +74,7 @@ pub(super) fn mesh(
         creased,
         whole,
         Some(fork),
+        Some(branches),
         marching,
         bbox,
         &super::build::march_settings(def),

@@ -19,6 +19,12 @@ pub use dist::{ImplicitDist, PatchDist, SolidDist};
 /// does not depend on which thread ran what first. None if it cannot be built.
 pub type Fork<'a> = dyn Fn() -> Option<Box<dyn Surface>> + Sync + 'a;
 
+/// Makes fresh oracles of the branches of a surface's spine (`survey::spine`), in the
+/// spine's order, as [`Fork`] makes one of the whole: a smooth piece of a creased surface
+/// marched on the rayon pool evaluates its form on branches of its own
+/// (`survey::spine::Creased::detached`). None if they cannot be built.
+pub type BranchFork<'a> = dyn Fn() -> Option<Vec<Box<dyn Surface>>> + Sync + 'a;
+
 /// A surface given by a Rust closure returning value and gradient: for tests, benches and
 /// native baselines.
 pub struct NativeSurface<F>(pub F);

@@ -1019,16 +1019,7 @@ impl Creased {
     /// An interval holding form i over the box lo..hi, from the branches' bounds (None when
     /// a branch cannot bound itself).
     pub fn form_bound(&mut self, i: usize, lo: DVec3, hi: DVec3) -> Option<Interval> {
-        let form = self.forms[i].clone();
-        let mut known = true;
-        let b = form.bound(|k| match self.branches[k].bound(lo, hi) {
-            Some(b) => b,
-            None => {
-                known = false;
-                Interval::ENTIRE
-            }
-        });
-        known.then_some(b)
+        bound_on(&self.forms[i], &mut self.branches, lo, hi)
     }
 
     /// The forms of `spine` (a pruned spine of this surface), registered: every pattern of
@@ -1102,6 +1093,63 @@ impl Creased {
     /// Form i as a surface of its own.
     pub fn piece(&mut self, i: usize) -> Piece<'_> {
         Piece { of: self, form: i }
+    }
+
+    /// Form i, to be evaluated on fresh oracles of the branches ([`Detached`]).
+    pub fn form_terms(&self, i: usize) -> Form {
+        self.forms[i].clone()
+    }
+}
+
+/// An interval holding `form` over the box lo..hi from its branches' bounds (None when a
+/// branch cannot bound itself).
+fn bound_on(
+    form: &Form,
+    branches: &mut [Box<dyn Surface>],
+    lo: DVec3,
+    hi: DVec3,
+) -> Option<Interval> {
+    let mut known = true;
+    let b = form.bound(|k| match branches[k].bound(lo, hi) {
+        Some(b) => b,
+        None => {
+            known = false;
+            Interval::ENTIRE
+        }
+    });
+    known.then_some(b)
+}
+
+/// One form of a creased surface on branches of its own: fresh oracles of the surface's
+/// branches (`surface::BranchFork`), made on the thread that marches the piece. Bit for bit
+/// what [`Creased::piece`] gives where the branches answer the same whatever was asked
+/// before (all but the warm starts of `dist`).
+pub struct Detached {
+    form: Form,
+    branches: Vec<Box<dyn Surface>>,
+}
+
+impl Detached {
+    /// `form` (from [`Creased::form_terms`]) on `branches`; None when a branch it uses is
+    /// missing.
+    pub fn new(form: Form, branches: Vec<Box<dyn Surface>>) -> Option<Detached> {
+        let known = form.branches().all(|k| k < branches.len());
+        known.then_some(Detached { form, branches })
+    }
+}
+
+impl Surface for Detached {
+    fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+        let branches = &mut self.branches;
+        self.form.combine(|k| branches[k].value_gradient(p))
+    }
+
+    fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
+        bound_on(&self.form, &mut self.branches, lo, hi)
+    }
+
+    fn fault(&self) -> Option<Fault> {
+        self.branches.iter().find_map(|b| b.fault())
     }
 }
 

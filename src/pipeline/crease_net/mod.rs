@@ -23,7 +23,9 @@
 //!    given to each of its two faces walked so that the face lies on its left.
 //! 5. Pieces: every face's polygons are chained at the corners into loops and marched on the
 //!    face's form as front and bounds (`march::march_verified`), so the pieces share the
-//!    crease vertices and the whole is watertight. Every vertex of a piece must lie where its
+//!    crease vertices and the whole is watertight. The pieces are marched side by side on
+//!    the rayon pool, each on fresh oracles of the spine's branches, and taken in face order
+//!    as if marched one after another (the same bits for any number of threads). Every vertex of a piece must lie where its
 //!    face is chosen (f = Lᵢ there): a vertex elsewhere means a crease was missed, and the mesh
 //!    fails.
 //! 6. Components that no crease touches are found and marched by the component search around
@@ -39,22 +41,26 @@
 mod join;
 mod pair;
 mod slide;
+#[cfg(test)]
+mod tests;
 mod trace;
 mod width;
 
 use std::collections::BTreeMap;
+use std::sync::atomic::Ordering;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::components::{self, Marching, SearchError, SearchSettings};
 use crate::march::{self, MarchError, MarchInput, MarchSettings, Start};
 use crate::mesh::Mesh;
 use crate::mesh::check::ANY_GROUP;
 use crate::mesh::progress::Counts;
-use crate::surface::Surface;
+use crate::surface::{BranchFork, Surface};
 use crate::survey::faces::{FaceError, FaceSettings};
 use crate::survey::sizing::{Cap, Sizing};
-use crate::survey::spine::{Creased, Whole};
+use crate::survey::spine::{Creased, Detached, Form, Whole};
 use join::{Side, bits, chain, check_joined, check_smooth};
 pub(crate) use join::{merge, merge_at};
 use trace::{CREASE_SHARE, Tracer};
@@ -202,8 +208,10 @@ impl From<FaceError> for CreaseError {
 
 /// Meshes `creased` (f itself is `whole`, with its interval bound) inside the box as the
 /// module documentation says. With `fork` (fresh oracles of f), the smooth components are
-/// marched on the rayon pool as `components::mesh_components_forked` says. `progress`, where
-/// given, counts the triangles of the pieces and components as they are marched.
+/// marched on the rayon pool as `components::mesh_components_forked` says; with `branches`
+/// (fresh oracles of the spine's branches), the smooth pieces too, each on its own. The mesh
+/// is the same for any number of threads. `progress`, where given, counts the triangles of
+/// the pieces and components as they are marched.
 // The oracles, the marching, the box, three settings structs and the counts: each a
 // caller's choice.
 #[allow(clippy::too_many_arguments)]
@@ -211,6 +219,7 @@ pub fn mesh_creased(
     creased: &mut Creased,
     whole: &mut dyn Surface,
     fork: Option<&crate::surface::Fork<'_>>,
+    branches: Option<&BranchFork<'_>>,
     marching: Marching,
     bbox: (DVec3, DVec3),
     march_settings: &MarchSettings,
@@ -226,6 +235,7 @@ pub fn mesh_creased(
             creased,
             whole,
             fork,
+            branches,
             marching,
             bbox,
             march_settings,
@@ -247,6 +257,14 @@ pub fn mesh_creased(
     }
 }
 
+/// A smooth piece to march: its loops as front and bounds, and the forms it may be marched
+/// on, in the order they are tried.
+struct PieceJob {
+    at: DVec3,
+    input: MarchInput,
+    forms: Vec<usize>,
+}
+
 /// How many pairs of forms `mesh_creased` keeps apart before it gives up.
 const MAX_APART: usize = 8;
 
@@ -255,6 +273,7 @@ fn mesh_creased_once(
     creased: &mut Creased,
     whole: &mut dyn Surface,
     fork: Option<&crate::surface::Fork<'_>>,
+    branches: Option<&BranchFork<'_>>,
     marching: Marching,
     bbox: (DVec3, DVec3),
     march_settings: &MarchSettings,
@@ -412,10 +431,20 @@ fn mesh_creased_once(
         polygon_edge_min: march_settings.polygon_edge_min.min(settings.shortest),
         ..*march_settings
     };
-    let mut parts = Vec::new();
     let slides = march_settings.quality_angle > 0.0;
+    // The pieces to march, in face order: a chain that fails ends the list, its error
+    // given after the earlier pieces' (as one march after another gave it).
+    let region = settings.region * step;
+    let mut jobs: Vec<PieceJob> = Vec::new();
+    let mut unchained = None;
     for (face, polys) in sides {
-        let loops = chain(polys, &corners)?;
+        let loops = match chain(polys, &corners) {
+            Ok(loops) => loops,
+            Err(e) => {
+                unchained = Some(e);
+                break;
+            }
+        };
         if trace {
             eprintln!("creases: piece of face {face}: {} loop(s)", loops.len());
         }
@@ -432,7 +461,6 @@ fn mesh_creased_once(
         // The face's forms whose zero sets hold its polygons, its first form first: where a
         // form is another's shadow over part of the face (a smooth boolean saturating onto
         // it), the one that is the face throughout is the one whose piece stays on it.
-        let region = settings.region * step;
         let mut forms: Vec<usize> = Vec::new();
         for k in 0..t.c.form_count() {
             if t.c.class(k) != face {
@@ -449,21 +477,66 @@ fn mesh_creased_once(
         if forms.is_empty() {
             forms.push(face);
         }
-        let mut tried: Result<march::Marched, CreaseError> = Err(CreaseError::Chain { at });
-        for &form in &forms {
-            tried = march::march_verified_capped(
-                &mut t.c.piece(form),
-                None,
-                &input,
-                &piece_settings,
-                progress.map(|p| &p.triangles),
-                &caps,
-            )
-            .map_err(|source| CreaseError::March { at, source })
-            .and_then(|marched| {
-                check_piece(t.c, form, &marched.mesh, region)?;
-                Ok(marched)
-            });
+        jobs.push(PieceJob { at, input, forms });
+    }
+    // A form is marched on fresh oracles of the branches where `branches` makes them (then
+    // what a piece computes does not depend on which thread marched what before it), else
+    // on the surface itself.
+    let counter = progress.map(|p| &p.triangles);
+    let march_form = |surface: &mut dyn Surface, input: &MarchInput| {
+        march::march_verified_capped(surface, None, input, &piece_settings, counter, &caps)
+    };
+    // Each piece's first form marched side by side on the rayon pool (one piece a task, so
+    // that the large faces go to different threads), with the block's limit; then, in face
+    // order, each piece is taken as one march after another would have it: kept where its
+    // peak stayed within what the pieces before it left of the limit (the same mesh:
+    // `Marched::peak_triangles`), else marched again with that.
+    let mut first: Vec<Option<Result<march::Marched, MarchError>>> = match branches {
+        Some(fork) if jobs.len() > 1 => {
+            let forms: Vec<Form> = jobs.iter().map(|j| t.c.form_terms(j.forms[0])).collect();
+            jobs.par_iter()
+                .zip(forms)
+                .with_max_len(1)
+                .map(|(job, form)| {
+                    let mut piece = Detached::new(form, fork()?)?;
+                    Some(march_form(&mut piece, &job.input))
+                })
+                .collect()
+        }
+        _ => jobs.iter().map(|_| None).collect(),
+    };
+    let mut parts = Vec::new();
+    for (job, first) in jobs.iter().zip(&mut first) {
+        let input = MarchInput {
+            max_triangles: limit,
+            ..job.input.clone()
+        };
+        let mut tried: Result<march::Marched, CreaseError> = Err(CreaseError::Chain { at: job.at });
+        for (n, &form) in job.forms.iter().enumerate() {
+            let ahead = if n == 0 { first.take() } else { None };
+            let marched = match ahead {
+                Some(Ok(m)) if limit.is_none_or(|l| m.peak_triangles <= l) => Ok(m),
+                Some(Err(e)) if limit == job.input.max_triangles => Err(e),
+                ahead => {
+                    // Made with a larger limit than this piece has: its count taken back.
+                    if let (Some(Ok(m)), Some(c)) = (&ahead, counter) {
+                        c.fetch_sub(m.mesh.triangles.len() as u64, Ordering::Relaxed);
+                    }
+                    let fresh = branches
+                        .and_then(|fork| fork())
+                        .and_then(|b| Detached::new(t.c.form_terms(form), b));
+                    match fresh {
+                        Some(mut piece) => march_form(&mut piece, &input),
+                        None => march_form(&mut t.c.piece(form), &input),
+                    }
+                }
+            };
+            tried = marched
+                .map_err(|source| CreaseError::March { at: job.at, source })
+                .and_then(|marched| {
+                    check_piece(t.c, form, &marched.mesh, region)?;
+                    Ok(marched)
+                });
             if tried.is_ok() {
                 break;
             }
@@ -482,6 +555,9 @@ fn mesh_creased_once(
         limit = limit.map(|l| l.saturating_sub(marched.mesh.triangles.len() as u64).max(1));
         out.pieces += 1;
         parts.push(marched.mesh);
+    }
+    if let Some(e) = unchained {
+        return Err(e);
     }
     // Each piece's triangles were checked for crossings by its own march: the joined check
     // looks only across pieces, at the components and where the slide moved a vertex.
