@@ -128,6 +128,10 @@ const SMOOTH_BELOW: f64 = 0.97;
 /// that the ODT's first round then sets anyway (0.9771 with them, 0.9768 without, at 2.4
 /// times the rounds' cost; CHANGELOG.md, Notes, *The stage as cheap as its aim*).
 const BAD_RINGS: usize = 2;
+/// Where the mean radius ratio is at the aim and the angle's rounds leave triangles below
+/// the target, the ratios' phase and the ODT rounds run over the vertices within this many
+/// rings of them (`Stage::ratio_phases`), not over the whole mesh.
+const MEND_RINGS: usize = 8;
 
 /// Rounds after `Limits::rounds`, while a triangle is still below the target, in which the
 /// border vertices of such triangles slide along their box face (`slide`). Sliding from the

@@ -104,8 +104,8 @@ impl Stage<'_> {
         }
     }
 
-    /// `rounds` rounds of ODT smoothing over every free vertex in index order, moving each
-    /// to its ODT position (`odt_target`). After the first round only the vertices around
+    /// `rounds` rounds of ODT smoothing over the free vertices `active` marks in index order,
+    /// moving each to its ODT position (`odt_target`). After the first round only the vertices around
     /// the last round's moves are visited, and they move only by more than `ODT_SETTLE` of
     /// their local step. Returns which vertices moved.
     ///
@@ -117,6 +117,7 @@ impl Stage<'_> {
     /// (`Fan::guards_move`).
     pub(super) fn odt_rounds(
         &mut self,
+        mut active: Vec<bool>,
         rounds: u32,
         tolerance: f64,
         surface: &mut dyn Surface,
@@ -128,8 +129,8 @@ impl Stage<'_> {
         let mut moved = vec![false; self.pos.len()];
         let mut star = Vec::new();
         let mut fan = Fan::empty();
-        // Each round visits the vertices around what the round before moved.
-        let mut active = vec![true; self.pos.len()];
+        // The first round visits the vertices `active` marks, each round after it those
+        // around what the round before moved.
         for round in 0..rounds {
             let mut moved_now = vec![false; self.pos.len()];
             for v in 0..self.pos.len() as u32 {

@@ -11,7 +11,7 @@ use crate::surface::{Fork, Surface};
 
 use super::shape::{Shape, mean_ratio, ratio_sum_of};
 use super::{
-    BAD_RINGS, CENTROID_GAIN, CENTROID_ROUNDS, Limits, ODT_REACH, ODT_ROUNDS, Project,
+    BAD_RINGS, CENTROID_GAIN, CENTROID_ROUNDS, Limits, MEND_RINGS, ODT_REACH, ODT_ROUNDS, Project,
     ROUNDS_STALL, Report, SCAN_BLOCK, SLIDE_ROUNDS, SMOOTH_BELOW, Stage,
 };
 
@@ -132,11 +132,30 @@ impl Stage<'_> {
         // valence flips and ODT rounds around them may. (Two of the gallery's meshes keep
         // one such triangle beside a box face after the centroid's round, at 29.2° and
         // 29.8°; the full path mends both, as it did when an ODT round left their means
-        // below the aim.)
-        if mean < aim || !below.is_empty() {
-            self.polish(vec![true; self.pos.len()], limits, surface, project, report);
+        // below the aim.) With the mean at the aim, the path runs first only around them
+        // (`MEND_RINGS`), and over the whole mesh only where that leaves one: over the whole
+        // it cost one of the fine sphere's eight slabs 0.13 s for one triangle at 29.6°, an
+        // eighth of the one-thread call.
+        let mut around = mean >= aim && !below.is_empty();
+        while mean < aim || !below.is_empty() {
+            let from = if around {
+                let mut near = vec![false; self.pos.len()];
+                for &t in &below {
+                    for v in self.tri[t as usize] {
+                        near[v as usize] = true;
+                    }
+                }
+                for _ in 0..MEND_RINGS {
+                    near = self.grow(&near);
+                }
+                near
+            } else {
+                vec![true; self.pos.len()]
+            };
+            self.polish(from.clone(), limits, surface, project, report);
             let smoothing_started = std::time::Instant::now();
-            let moved = self.odt_rounds(ODT_ROUNDS, limits.tolerance, surface, project, report);
+            let moved =
+                self.odt_rounds(from, ODT_ROUNDS, limits.tolerance, surface, project, report);
             report.smoothing_seconds += smoothing_started.elapsed().as_secs_f64();
             let dirty = self.grow(&moved);
             self.polish(dirty, limits, surface, project, report);
@@ -146,6 +165,9 @@ impl Stage<'_> {
                 (mean, below) =
                     self.centroid_rounds(rounds, mean, limits, surface, fork, project, report);
                 report.smoothing_seconds += smoothing_started.elapsed().as_secs_f64();
+            }
+            if !std::mem::replace(&mut around, false) {
+                break;
             }
         }
         (mean, below)
