@@ -728,44 +728,68 @@ fn a_free_vertex_moves_onto_the_surface_and_polygon_vertices_stay() {
     assert_eq!(c.euler(), 1);
 }
 
+/// A hexagonal grid of (n + 1)² vertices in the plane: its outline first (the stage's
+/// fixed vertices), then its inner vertices, each shaken by up to `shake`/2 of the spacing
+/// along x and y (drawn from `seed`).
+struct HexGrid {
+    pos: Vec<DVec3>,
+    tri: Vec<[u32; 3]>,
+    outline: Vec<(i32, i32)>,
+    /// The vertex number of each (i, j).
+    index: std::collections::HashMap<(i32, i32), u32>,
+}
+
+impl HexGrid {
+    fn at(i: i32, j: i32) -> DVec3 {
+        DVec3::new(i as f64 + 0.5 * j as f64, 0.75f64.sqrt() * j as f64, 0.0)
+    }
+
+    fn shaken(n: i32, shake: f64, seed: u64) -> HexGrid {
+        let mut rnd = crate::testing::uniform(seed);
+        let (mut outline, mut inner) = (Vec::new(), Vec::new());
+        for j in 0..=n {
+            for i in 0..=n {
+                if i == 0 || j == 0 || i == n || j == n {
+                    outline.push((i, j));
+                } else {
+                    inner.push((i, j));
+                }
+            }
+        }
+        let index: std::collections::HashMap<(i32, i32), u32> = (outline.iter().chain(&inner))
+            .enumerate()
+            .map(|(k, &q)| (q, k as u32))
+            .collect();
+        let mut pos: Vec<DVec3> = outline.iter().map(|&(i, j)| Self::at(i, j)).collect();
+        for &(i, j) in &inner {
+            let moved = DVec3::new(rnd() - 0.5, rnd() - 0.5, 0.0) * shake;
+            pos.push(Self::at(i, j) + moved);
+        }
+        let v = |i: i32, j: i32| index[&(i, j)];
+        let mut tri = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                tri.push([v(i, j), v(i + 1, j), v(i, j + 1)]);
+                tri.push([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
+            }
+        }
+        HexGrid {
+            pos,
+            tri,
+            outline,
+            index,
+        }
+    }
+}
+
 #[test]
 fn the_ratio_phases_stop_at_their_aim() {
     // A hexagonal grid in the plane with its inner vertices shaken by up to 0.15 of
     // the spacing (every angle stays above 30°, so only the ratio phases act); the
     // outline is fixed (listed first).
-    let n = 12;
-    let at = |i: i32, j: i32| DVec3::new(i as f64 + 0.5 * j as f64, 0.75f64.sqrt() * j as f64, 0.0);
-    let mut rnd = crate::testing::uniform(7);
-    let (mut outline, mut inner) = (Vec::new(), Vec::new());
-    for j in 0..=n {
-        for i in 0..=n {
-            if i == 0 || j == 0 || i == n || j == n {
-                outline.push((i, j));
-            } else {
-                inner.push((i, j));
-            }
-        }
-    }
-    let index = |i: i32, j: i32| {
-        let k = outline
-            .iter()
-            .chain(&inner)
-            .position(|&q| q == (i, j))
-            .unwrap();
-        k as u32
-    };
-    let mut pos: Vec<DVec3> = outline.iter().map(|&(i, j)| at(i, j)).collect();
-    for &(i, j) in &inner {
-        let shake = DVec3::new(rnd() - 0.5, rnd() - 0.5, 0.0) * 0.3;
-        pos.push(at(i, j) + shake);
-    }
-    let mut tri = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            tri.push([index(i, j), index(i + 1, j), index(i, j + 1)]);
-            tri.push([index(i + 1, j), index(i + 1, j + 1), index(i, j + 1)]);
-        }
-    }
+    let HexGrid {
+        pos, tri, outline, ..
+    } = HexGrid::shaken(12, 0.3, 7);
     let fresh = || Case::new(pos.clone(), tri.clone());
     let before = fresh().mean_ratio();
     let worst = fresh().worst_deg();
@@ -968,37 +992,15 @@ fn a_triangle_below_the_angle_is_mended_around_it_when_the_mean_is_at_the_aim() 
     // up to 0.05 of the spacing, and one near the middle pushed 0.75 of the spacing towards
     // a neighbour (triangles of about 20°).
     let n = 70;
-    let at = |i: i32, j: i32| DVec3::new(i as f64 + 0.5 * j as f64, 0.75f64.sqrt() * j as f64, 0.0);
-    let mut rnd = crate::testing::uniform(11);
-    let mut pos = Vec::new();
-    let mut fixed_first = Vec::new();
-    let mut inner = Vec::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            if i == 0 || j == 0 || i == n || j == n {
-                fixed_first.push((i, j));
-            } else {
-                inner.push((i, j));
-            }
-        }
-    }
-    let order: Vec<(i32, i32)> = fixed_first.iter().chain(&inner).copied().collect();
-    let index = |i: i32, j: i32| order.iter().position(|&q| q == (i, j)).unwrap() as u32;
-    for &(i, j) in &order {
-        let free = i != 0 && j != 0 && i != n && j != n;
-        let shake = DVec3::new(rnd() - 0.5, rnd() - 0.5, 0.0) * 0.1;
-        pos.push(at(i, j) + if free { shake } else { DVec3::ZERO });
-    }
-    let middle = index(n / 2, n / 2) as usize;
-    let pushed = pos[middle] + 0.75 * (at(n / 2 + 1, n / 2) - at(n / 2, n / 2));
+    let HexGrid {
+        mut pos,
+        tri,
+        outline,
+        index,
+    } = HexGrid::shaken(n, 0.1, 11);
+    let middle = index[&(n / 2, n / 2)] as usize;
+    let pushed = pos[middle] + 0.75 * (HexGrid::at(n / 2 + 1, n / 2) - HexGrid::at(n / 2, n / 2));
     pos[middle] = pushed;
-    let mut tri = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            tri.push([index(i, j), index(i + 1, j), index(i, j + 1)]);
-            tri.push([index(i + 1, j), index(i + 1, j + 1), index(i, j + 1)]);
-        }
-    }
     let mut case = Case::new(pos.clone(), tri);
     let before = case.mean_ratio();
     assert!(
@@ -1013,7 +1015,7 @@ fn a_triangle_below_the_angle_is_mended_around_it_when_the_mean_is_at_the_aim() 
         tolerance: 0.1,
         ratio: 0.95,
     };
-    let fixed = fixed_first.len();
+    let fixed = outline.len();
     let mut report = Report::default();
     let (mean, below) = case.stage(fixed, None).ratio_phases(
         &limits,
