@@ -22,7 +22,7 @@ pub type Fork<'a> = dyn Fn() -> Option<Box<dyn Surface>> + Sync + 'a;
 /// Makes fresh oracles of the branches of a surface's spine (`survey::spine`), in the
 /// spine's order, as [`Fork`] makes one of the whole: a smooth piece of a creased surface
 /// marched on the rayon pool evaluates its form on branches of its own
-/// (`survey::spine::Creased::detached`). None if they cannot be built.
+/// (`survey::spine::Detached`). None if they cannot be built.
 pub type BranchFork<'a> = dyn Fn() -> Option<Vec<Box<dyn Surface>>> + Sync + 'a;
 
 /// A surface given by a Rust closure returning value and gradient: for tests, benches and
