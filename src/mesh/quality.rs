@@ -3,6 +3,7 @@
 //! (|f|/|∇f|); and the `MeshReport` the CLI prints as JSON (docs/cli.md).
 
 use glam::DVec3;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::Mesh;
@@ -77,27 +78,72 @@ fn degrees(cosine: f64) -> f64 {
     cosine.acos().to_degrees()
 }
 
+/// Triangles a block of `quality`'s pass on the pool.
+const QUALITY_BLOCK: usize = 1 << 14;
+
+/// One block's sums and extremes (`quality`).
+struct Sums {
+    ratio_sum: f64,
+    ratio_min: f64,
+    emin: f64,
+    emax: f64,
+    esum: f64,
+    en: usize,
+}
+
+impl Default for Sums {
+    fn default() -> Self {
+        Sums {
+            ratio_sum: 0.0,
+            ratio_min: f64::INFINITY,
+            emin: f64::INFINITY,
+            emax: 0.0,
+            esum: 0.0,
+            en: 0,
+        }
+    }
+}
+
 /// Angle and edge statistics of `mesh` (NaN where the mesh has no triangles), in time linear
 /// in its size (the percentiles by selection, not a sort).
 pub fn quality(mesh: &Mesh) -> Quality {
     // The smallest angles' cosines: the k-th smallest angle is the arccosine of the k-th
-    // largest cosine, so only the selected ones need an acos.
-    let mut cosines: Vec<f64> = Vec::with_capacity(mesh.triangles.len());
+    // largest cosine, so only the selected ones need an acos. Computed in blocks on the
+    // pool, their sums added in block order: the same bits for any number of threads (the
+    // report of the fine sphere's 1.2 M triangles took 0.06 s on one thread, beside 0.004 s
+    // for the vertex errors).
+    let mut cosines = vec![0.0; mesh.triangles.len()];
+    let blocks: Vec<Sums> = cosines
+        .par_chunks_mut(QUALITY_BLOCK)
+        .zip(mesh.triangles.par_chunks(QUALITY_BLOCK))
+        .map(|(cosines, triangles)| {
+            let mut sums = Sums::default();
+            for (cosine, t) in cosines.iter_mut().zip(triangles) {
+                let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+                *cosine = smallest_angle_cosine(a, b, c);
+                let ratio = radius_ratio(a, b, c);
+                sums.ratio_sum += ratio;
+                sums.ratio_min = sums.ratio_min.min(ratio);
+                for (p, q) in [(a, b), (b, c), (c, a)] {
+                    let l = p.distance(q);
+                    sums.emin = sums.emin.min(l);
+                    sums.emax = sums.emax.max(l);
+                    sums.esum += l;
+                    sums.en += 1;
+                }
+            }
+            sums
+        })
+        .collect();
     let (mut ratio_sum, mut ratio_min) = (0.0, f64::INFINITY);
     let (mut emin, mut emax, mut esum, mut en) = (f64::INFINITY, 0.0f64, 0.0, 0usize);
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
-        cosines.push(smallest_angle_cosine(a, b, c));
-        let ratio = radius_ratio(a, b, c);
-        ratio_sum += ratio;
-        ratio_min = ratio_min.min(ratio);
-        for (p, q) in [(a, b), (b, c), (c, a)] {
-            let l = p.distance(q);
-            emin = emin.min(l);
-            emax = emax.max(l);
-            esum += l;
-            en += 1;
-        }
+    for b in blocks {
+        ratio_sum += b.ratio_sum;
+        ratio_min = ratio_min.min(b.ratio_min);
+        emin = emin.min(b.emin);
+        emax = emax.max(b.emax);
+        esum += b.esum;
+        en += b.en;
     }
     let n = cosines.len();
     let (mut p1, mut p5, mut median, mut min_angle) = (f64::NAN, f64::NAN, f64::NAN, f64::NAN);
@@ -314,6 +360,7 @@ mod tests {
     /// a full sort, on random triangles (near-degenerate and degenerate ones among them).
     #[test]
     fn smallest_angle_and_percentiles_match_the_plain_forms() {
+        // 20 000 triangles: two of `quality`'s blocks.
         let mut state = 0x2545_f491_4f6c_dd1du64;
         let mut unit = || {
             state ^= state << 13;
@@ -322,7 +369,7 @@ mod tests {
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         let mut vertices = Vec::new();
-        for i in 0..3000 {
+        for i in 0..60_000 {
             let p = DVec3::new(unit(), unit(), unit());
             // Every tenth triangle nearly flat, every hundredth with a repeated corner.
             vertices.push(match i % 300 {
@@ -331,7 +378,7 @@ mod tests {
                 _ => p,
             });
         }
-        let triangles: Vec<[u32; 3]> = (0..1000).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+        let triangles: Vec<[u32; 3]> = (0..20_000).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
         let mesh = Mesh {
             normals: vec![DVec3::Z; vertices.len()],
             vertices,
@@ -362,6 +409,31 @@ mod tests {
             ],
             [all[0], at(0.01), at(0.05), at(0.5)]
         );
+        // The sums and extremes against one plain pass, and the same bits on any pool.
+        let (mut ratios, mut edges) = (Vec::new(), Vec::new());
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+            ratios.push(radius_ratio(a, b, c));
+            edges.extend([a.distance(b), b.distance(c), c.distance(a)]);
+        }
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let least = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!((q.radius_ratio_mean - mean(&ratios)).abs() < 1e-12 * mean(&ratios));
+        assert!((q.mean_edge - mean(&edges)).abs() < 1e-12 * mean(&edges));
+        assert_eq!(q.radius_ratio_min, least(&ratios));
+        assert_eq!(q.min_edge, least(&edges));
+        assert_eq!(q.max_edge, edges.iter().copied().fold(0.0, f64::max));
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a pool");
+            let on = pool.install(|| quality(&mesh));
+            assert_eq!(
+                [on.radius_ratio_mean, on.mean_edge].map(f64::to_bits),
+                [q.radius_ratio_mean, q.mean_edge].map(f64::to_bits)
+            );
+        }
     }
 
     #[test]
