@@ -79,11 +79,11 @@ pub(super) fn verify(
     let mut v = Verdict::default();
     if rayon::current_num_threads() > 1 {
         rayon::in_place_scope(|s| {
-            s.spawn(|_| pairs = intersecting_pairs_with_edges(mesh, &edges));
+            s.spawn(|_| pairs = intersecting_pairs_with_edges(mesh, None, &edges));
             v = against_surface(surface, m, &edges, tolerance, scale, sp_tol);
         });
     } else {
-        pairs = intersecting_pairs_with_edges(mesh, &edges);
+        pairs = intersecting_pairs_with_edges(mesh, None, &edges);
         v = against_surface(surface, m, &edges, tolerance, scale, sp_tol);
     }
     let crossings = pairs.iter().flatten().map(|&t| {

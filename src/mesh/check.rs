@@ -398,10 +398,14 @@ pub fn crossing_pairs(vs: &[DVec3], tris: &[[u32; 3]], groups: Option<&[u32]>) -
     crossing_pairs_over(vs, tris, groups, None)
 }
 
-/// `intersecting_pairs` of a mesh whose edges' uses (`Edges::new` of its vertices and
+/// `intersecting_pairs_across` of a mesh whose edges' uses (`Edges::new` of its vertices and
 /// triangles) are at hand, for the certificate.
-pub fn intersecting_pairs_with_edges(mesh: &Mesh, edges: &Edges) -> Vec<[u32; 2]> {
-    crossing_pairs_over(&mesh.vertices, &mesh.triangles, None, Some(edges))
+pub fn intersecting_pairs_with_edges(
+    mesh: &Mesh,
+    groups: Option<&[u32]>,
+    edges: &Edges,
+) -> Vec<[u32; 2]> {
+    crossing_pairs_over(&mesh.vertices, &mesh.triangles, groups, Some(edges))
 }
 
 /// `crossing_pairs`, with the edges' uses where the caller has them.

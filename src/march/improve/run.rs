@@ -136,8 +136,15 @@ impl Stage<'_> {
         // (`MEND_RINGS`), and over the whole mesh only where that leaves one: over the whole
         // it cost one of the fine sphere's eight slabs 0.13 s for one triangle at 29.6°, an
         // eighth of the one-thread call.
-        let mut around = mean >= aim && !below.is_empty();
-        while mean < aim || !below.is_empty() {
+        let scopes: &[bool] = if mean >= aim {
+            &[true, false]
+        } else {
+            &[false]
+        };
+        for &around in scopes {
+            if mean >= aim && below.is_empty() {
+                break;
+            }
             let from = if around {
                 let mut near = vec![false; self.pos.len()];
                 for &t in &below {
@@ -165,9 +172,6 @@ impl Stage<'_> {
                 (mean, below) =
                     self.centroid_rounds(rounds, mean, limits, surface, fork, project, report);
                 report.smoothing_seconds += smoothing_started.elapsed().as_secs_f64();
-            }
-            if !std::mem::replace(&mut around, false) {
-                break;
             }
         }
         (mean, below)

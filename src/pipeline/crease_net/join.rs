@@ -10,6 +10,7 @@ use glam::DVec3;
 use super::CreaseError;
 use crate::mesh::Mesh;
 use crate::mesh::bits::BitsHash;
+use crate::mesh::edges::Edges;
 use crate::survey::spine::Creased;
 
 /// The joined mesh is one surface: no edge in more than two triangles, none walked the same
@@ -25,19 +26,47 @@ pub(super) fn check_joined(mesh: &Mesh, groups: &[u32]) -> Result<(), CreaseErro
             .sum::<DVec3>()
             / 3.0
     };
-    // Each edge's uses each way, keyed by (lower, higher) vertex as one word (a fast hash
-    // and the room made at once: a million edges on a CAD part).
+    // The edges' uses, for the edge flaws and for the crossing check's certificate alike;
+    // where an edge is run twice one way or a triangle faces against the normals, the
+    // first triangle in order that shows it is looked for (`first_flaw`).
+    let edges = Edges::new(mesh.vertices.len(), &mesh.triangles);
+    let twice = edges.runs().any(|(_, _, run)| {
+        let forward = run.iter().filter(|u| u.forward).count();
+        forward > 1 || run.len() - forward > 1
+    });
+    let flawed = twice || (0..mesh.triangles.len()).any(|n| !faces_its_normals(mesh, n));
+    if flawed && let Some((n, why)) = first_flaw(mesh) {
+        return Err(CreaseError::Joined { at: centre(n), why });
+    }
+    if let Some([a, _]) =
+        crate::mesh::check::intersecting_pairs_with_edges(mesh, Some(groups), &edges).first()
+    {
+        return Err(CreaseError::Joined {
+            at: centre(*a as usize),
+            why: "triangles of two pieces cross",
+        });
+    }
+    Ok(())
+}
+
+/// Whether triangle n turns towards the normals of its corners.
+fn faces_its_normals(mesh: &Mesh, n: usize) -> bool {
+    let t = mesh.triangles[n];
+    let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
+    let normals: DVec3 = t.iter().map(|&k| mesh.normals[k as usize]).sum();
+    let facing = (b - a).cross(c - a).dot(normals);
+    !facing.is_nan() && facing > 0.0
+}
+
+/// The first triangle, in order, that faces against its corners' normals or runs an edge
+/// that triangles before it (or it) run the same way already, and why.
+fn first_flaw(mesh: &Mesh) -> Option<(usize, &'static str)> {
+    // Each edge's uses each way, keyed by (lower, higher) vertex as one word.
     let mut uses: HashMap<u64, (u32, u32), BitsHash> =
         HashMap::with_capacity_and_hasher(mesh.triangles.len() * 3 / 2 + 16, BitsHash);
     for (n, t) in mesh.triangles.iter().enumerate() {
-        let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
-        let normals: DVec3 = t.iter().map(|&k| mesh.normals[k as usize]).sum();
-        let facing = (b - a).cross(c - a).dot(normals);
-        if facing.is_nan() || facing <= 0.0 {
-            return Err(CreaseError::Joined {
-                at: centre(n),
-                why: "a triangle faces against the surface's normal",
-            });
+        if !faces_its_normals(mesh, n) {
+            return Some((n, "a triangle faces against the surface's normal"));
         }
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
@@ -54,18 +83,11 @@ pub(super) fn check_joined(mesh: &Mesh, groups: &[u32]) -> Result<(), CreaseErro
                 } else {
                     "two triangles on one side of an edge"
                 };
-                return Err(CreaseError::Joined { at: centre(n), why });
+                return Some((n, why));
             }
         }
     }
-    if let Some([a, _]) = crate::mesh::check::intersecting_pairs_across(mesh, Some(groups)).first()
-    {
-        return Err(CreaseError::Joined {
-            at: centre(*a as usize),
-            why: "triangles of two pieces cross",
-        });
-    }
-    Ok(())
+    None
 }
 
 /// The meshes as one, vertices with bit-identical positions merged (the crease vertices the
