@@ -122,7 +122,7 @@ pub fn value(op: Op, a: f64, b: f64) -> f64 {
         Op::Atan2 => a.atan2(b),
         Op::Min => min_value(a, b),
         Op::Max => max_value(a, b),
-        Op::Hypot => a.hypot(b),
+        Op::Hypot => crate::values::hypot(a, b),
         Op::Dist => f64::NAN,
     }
 }
@@ -227,7 +227,7 @@ pub fn grad(op: Op, a: Grad, b: Grad) -> Grad {
             a.chain2(b, v, k, m)
         }
         Op::Hypot => {
-            let v = a.v.hypot(b.v);
+            let v = crate::values::hypot(a.v, b.v);
             let inv = if v == 0.0 { 0.0 } else { 1.0 / v };
             a.chain2(b, v, a.v * inv, b.v * inv)
         }

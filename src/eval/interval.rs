@@ -7,6 +7,7 @@
 //! The interval type and its arithmetic are `values::interval`; the conventions are there.
 
 use crate::compile::tape::Op;
+use crate::values::hypot;
 use crate::values::interval::{Interval, abs, add, atan2, cos, mul, pow, recip, sin, square, tan};
 
 /// `op a, b` on intervals: contains `ops::value(op, x, y)` for every x in a and y in b where
@@ -73,7 +74,7 @@ pub fn interval(op: Op, a: Interval, b: Interval) -> Interval {
         Op::Max => Interval::new(a.lo.max(b.lo), a.hi.max(b.hi)),
         Op::Hypot => {
             let (a, b) = (abs(a), abs(b));
-            Interval::new(a.lo.hypot(b.lo), a.hi.hypot(b.hi)).widen()
+            Interval::new(hypot(a.lo, b.lo), hypot(a.hi, b.hi)).widen()
         }
         Op::Dist => Interval::ENTIRE,
     }

@@ -10,14 +10,17 @@
 //! on constants are folded with `ops::value`; the others are emitted with exactly the VM's
 //! formulas, so the results are the batch VM's bit for bit in the values and up to the sign
 //! of zero in the partials (the dual-number rules of `ops` are the reference for both).
-//! Opcodes without a vector form here (the elementary functions, `pow`, `atan2`, `hypot`)
-//! call back into `ops` for each pair of points. Tapes with `dist` children, or without
-//! three inputs, stay on the VM, as does any host Cranelift cannot compile for.
+//! Opcodes without a vector form here (the elementary functions, `pow`, `atan2`) call back
+//! into `ops` for each pair of points. `hypot` has one: √(a·a + b·b) where a·a + b·b is a
+//! normal number (`values::hypot`), a lane flag where it is not, and the pair runs again
+//! with the call back where a flag is set (see `Emitter::pair`): a CAD part's cylinders made
+//! sixteen call backs a point. Tapes with `dist` children, or without three inputs, stay on
+//! the VM, as does any host Cranelift cannot compile for.
 
 use std::collections::HashMap;
 
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
-use cranelift_codegen::ir::types::{F64X2, I8X16, I32, I64X2};
+use cranelift_codegen::ir::types::{F64X2, I8, I8X16, I32, I64X2};
 use cranelift_codegen::ir::{
     AbiParam, ConstantData, Endianness, Function, InstBuilder, MemFlagsData, SigRef, Signature,
     StackSlot, StackSlotData, StackSlotKind, Value,
@@ -290,6 +293,10 @@ struct Emitter<'a, 'b> {
     scratch: Option<(StackSlot, SigRef)>,
     /// Whether `term` keeps `ops::term`'s guard (see `pair`).
     guards: bool,
+    /// Whether `hypot` is inlined (the fast copy, see `pair`) or called back.
+    inline_hypot: bool,
+    /// The lanes where every inlined `hypot` had a² + b² normal (all ones), once one is.
+    hypot_in_range: Option<Value>,
 }
 
 /// Scratch layout of a call back into `ops`: operand a, operand b, the result; each four
@@ -312,6 +319,8 @@ impl<'a, 'b> Emitter<'a, 'b> {
             splats: HashMap::new(),
             scratch: None,
             guards: true,
+            inline_hypot: false,
+            hypot_in_range: None,
         }
     }
 
@@ -323,6 +332,11 @@ impl<'a, 'b> Emitter<'a, 'b> {
     /// every rule combines partials only through terms and sums, and a NaN d keeps k·d NaN.
     /// So where no output partial is NaN, the guards would have changed nothing but the sign
     /// of zeros, and the results are stored; otherwise the pair runs again with the guards.
+    ///
+    /// That first copy (and, for values, a first copy where the tape has `hypot`) also
+    /// computes `hypot` inline, in `values::hypot`'s first form, and notes the lanes where
+    /// a² + b² was not normal (there `values::hypot` takes the host's scaled form): where one
+    /// is, the pair runs again with `hypot` called back. A large tape has only the second copy.
     fn pair(&mut self, points: Value, out: Value, at: Value) {
         // Cannot trap (the caller checked the lengths); not `aligned`: a vector store into
         // `out` is only as aligned as an f64.
@@ -337,30 +351,55 @@ impl<'a, 'b> Emitter<'a, 'b> {
             self.shuffle(v0, v2, HIGH_LOW),
             self.shuffle(v1, v2, LOW_HIGH),
         ];
+        let large = self.tape.instrs().len() > OPTIMISE_LIMIT;
         if !self.gradients {
-            let result = self.run_tape(inputs, false);
             let base = self.b.ins().imul_imm_u(at, (WIDTH * 8) as i64);
             let base = self.b.ins().iadd(out, base);
-            let v = self.vector(result.v);
-            self.b.ins().store(flags, v, base, 0);
+            let has_hypot = self.tape.instrs().iter().any(|i| i.op == Op::Hypot);
+            if large || !has_hypot {
+                let result = self.run_tape(inputs, false, false);
+                let v = self.vector(result.v);
+                self.b.ins().store(flags, v, base, 0);
+                return;
+            }
+            let fast = self.run_tape(inputs, false, true);
+            let fast = self.vector(fast.v);
+            let again = self.hypot_out_of_range();
+            let (slow, store_fast, done) = (
+                self.b.create_block(),
+                self.b.create_block(),
+                self.b.create_block(),
+            );
+            self.b.ins().brif(again, slow, &[], store_fast, &[]);
+            self.b.switch_to_block(store_fast);
+            self.b.ins().store(flags, fast, base, 0);
+            self.b.ins().jump(done, &[]);
+            self.b.switch_to_block(slow);
+            let slow = self.run_tape(inputs, false, false);
+            let slow = self.vector(slow.v);
+            self.b.ins().store(flags, slow, base, 0);
+            self.b.ins().jump(done, &[]);
+            self.b.switch_to_block(done);
             return;
         }
         let base = self.b.ins().imul_imm_u(at, (WIDTH * 32) as i64);
         let base = self.b.ins().iadd(out, base);
-        if self.tape.instrs().len() > OPTIMISE_LIMIT {
+        if large {
             // A large tape: one guarded copy, for half the compile time.
-            let guarded = self.run_tape(inputs, true);
+            let guarded = self.run_tape(inputs, true, false);
             let guarded = self.components(guarded);
             self.store_grads(guarded, base, flags);
             return;
         }
-        let fast = self.run_tape(inputs, false);
+        let fast = self.run_tape(inputs, false, true);
         let fast = self.components(fast);
         let nan = self.mask(FloatCC::Unordered, fast[1], fast[2]);
         let nan_z = self.mask(FloatCC::Unordered, fast[3], fast[3]);
         let nan = self.b.ins().bor(nan, nan_z);
         let nan = self.b.ins().bitcast(I64X2, MemFlagsData::new(), nan);
         let any_nan = self.b.ins().vany_true(nan);
+        let hypot_again = self.hypot_out_of_range();
+        let any_nan = self.b.ins().bor(any_nan, hypot_again);
         let (guarded, store_fast, done) = (
             self.b.create_block(),
             self.b.create_block(),
@@ -371,17 +410,33 @@ impl<'a, 'b> Emitter<'a, 'b> {
         self.store_grads(fast, base, flags);
         self.b.ins().jump(done, &[]);
         self.b.switch_to_block(guarded);
-        let slow = self.run_tape(inputs, true);
+        let slow = self.run_tape(inputs, true, false);
         let slow = self.components(slow);
         self.store_grads(slow, base, flags);
         self.b.ins().jump(done, &[]);
         self.b.switch_to_block(done);
     }
 
+    /// Whether an inlined `hypot` of the copy just run had a lane out of its range (an i8,
+    /// 0 where none had or none was inlined).
+    fn hypot_out_of_range(&mut self) -> Value {
+        match self.hypot_in_range.take() {
+            Some(in_range) => {
+                let in_range = self.b.ins().bitcast(I64X2, MemFlagsData::new(), in_range);
+                let all = self.b.ins().vall_true(in_range);
+                self.b.ins().bxor_imm_u(all, 1)
+            }
+            None => self.b.ins().iconst(I8, 0),
+        }
+    }
+
     /// The tape at the inputs' lanes: the output register (values only, unless computing
-    /// gradients; `guards`: whether `ops::term` keeps its zero guard).
-    fn run_tape(&mut self, inputs: [Value; 3], guards: bool) -> Dual {
+    /// gradients; `guards`: whether `ops::term` keeps its zero guard; `inline_hypot`:
+    /// whether `hypot` is inlined, its lanes' range noted for `hypot_out_of_range`).
+    fn run_tape(&mut self, inputs: [Value; 3], guards: bool, inline_hypot: bool) -> Dual {
         self.guards = guards;
+        self.inline_hypot = inline_hypot;
+        self.hypot_in_range = None;
         let mut regs: Vec<Dual> = vec![Dual::value(ZERO); self.tape.registers()];
         for (axis, input) in inputs.into_iter().enumerate() {
             let mut d = [ZERO; 3];
@@ -485,6 +540,7 @@ impl<'a, 'b> Emitter<'a, 'b> {
             }
             Op::Square => self.b.ins().fmul(va, va),
             Op::Sqrt => self.b.ins().sqrt(va),
+            Op::Hypot if self.inline_hypot => self.hypot(va, vb),
             Op::Abs => self.b.ins().fabs(va),
             Op::Add => self.b.ins().fadd(va, vb),
             Op::Sub => self.b.ins().fsub(va, vb),
@@ -510,6 +566,26 @@ impl<'a, 'b> Emitter<'a, 'b> {
             }
             _ => return self.call_back(op, Dual::value(a), Dual::value(b), false).v,
         })
+    }
+
+    /// `values::hypot`'s first form, √(a·a + b·b), with the lanes where a·a + b·b is normal
+    /// and finite added to `hypot_in_range` (elsewhere the pair runs again, see `pair`).
+    fn hypot(&mut self, a: Value, b: Value) -> Value {
+        let aa = self.b.ins().fmul(a, a);
+        let bb = self.b.ins().fmul(b, b);
+        let s = self.b.ins().fadd(aa, bb);
+        let (smallest, infinity) = (
+            self.vector(Const(f64::MIN_POSITIVE)),
+            self.vector(Const(f64::INFINITY)),
+        );
+        let normal = self.mask(FloatCC::GreaterThanOrEqual, s, smallest);
+        let finite = self.mask(FloatCC::LessThan, s, infinity);
+        let mut in_range = self.b.ins().band(normal, finite);
+        if let Some(before) = self.hypot_in_range {
+            in_range = self.b.ins().band(before, in_range);
+        }
+        self.hypot_in_range = Some(in_range);
+        self.b.ins().sqrt(s)
     }
 
     /// A lane mask (all ones where `x cc y`) typed as f64x2 for `bitselect` and `band`.
@@ -542,7 +618,7 @@ impl<'a, 'b> Emitter<'a, 'b> {
         let sparse = matches!(
             op,
             Op::Add | Op::Sub | Op::Mul | Op::Div | Op::Neg | Op::Square
-        );
+        ) || (op == Op::Hypot && self.inline_hypot);
         if !sparse {
             return self.call_back(op, a, b, true);
         }
@@ -576,6 +652,23 @@ impl<'a, 'b> Emitter<'a, 'b> {
                     self.sum(ha, ta, hb, tb)
                 }
                 (Op::Neg, _, _) => self.value(Op::Neg, ad, ad),
+                (Op::Hypot, _, _) => {
+                    // `ops::grad`: a/v·a' + b/v·b' (v > 0 where inlined: a² + b² is normal).
+                    let inv = self.value(Op::Div, Const(1.0), v);
+                    let ta = if ha {
+                        let k = self.value(Op::Mul, a.v, inv);
+                        self.term(k, ad)
+                    } else {
+                        ZERO
+                    };
+                    let tb = if hb {
+                        let m = self.value(Op::Mul, b.v, inv);
+                        self.term(m, bd)
+                    } else {
+                        ZERO
+                    };
+                    self.sum(ha, ta, hb, tb)
+                }
                 (Op::Square, _, _) => {
                     let twice = self.value(Op::Mul, Const(2.0), a.v);
                     self.term(twice, ad)

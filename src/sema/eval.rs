@@ -77,7 +77,7 @@ impl Checker<'_> {
                     Builtin::Min => a.min(c),
                     Builtin::Max => a.max(c),
                     Builtin::Pow => a.powf(c),
-                    Builtin::Hypot => a.hypot(c),
+                    Builtin::Hypot => crate::values::hypot(a, c),
                 }
             }
             ExprKind::Call(id, xs) => {

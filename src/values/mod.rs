@@ -1,7 +1,8 @@
 //! Value types shared by the stages: intervals and interval gradients (the bounds of the
 //! component search and the crease survey), f and ∇f at a point, and the surface oracle's
-//! trait that every numerical stage asks. Imports nothing of the crate, so any stage may use
-//! it without an import running back up the data flow (docs/ARCHITECTURE.md).
+//! trait that every numerical stage asks, and the one `hypot` every evaluator computes.
+//! Imports nothing of the crate, so any stage may use it without an import running back up
+//! the data flow (docs/ARCHITECTURE.md).
 
 pub mod interval;
 pub mod interval_grad;
@@ -10,3 +11,21 @@ pub mod oracle;
 pub use interval::Interval;
 pub use interval_grad::IntervalGrad;
 pub use oracle::{Fault, Surface, ValueGrad};
+
+/// √(a² + b²), the one `hypot` of the language: the constant folder, the VM, the native code
+/// (which has it in vector form, `eval::native`) and the interval bounds all compute this.
+/// Where a² + b² is a normal finite number it is `(a·a + b·b).sqrt()` — three correctly
+/// rounded operations, within about an ulp of the exact value, the same bits in scalar and
+/// vector code and on any libm; elsewhere (overflow, underflow, ∞, NaN) the host's
+/// `f64::hypot`, which scales, so hypot(1e200, 1) is 1e200 and hypot(∞, NaN) is ∞. The first
+/// form is non-decreasing in |a| and |b| (each rounded operation is) and both lie within two
+/// ulps of the exact value, so an interval's endpoints widened by two ulps enclose it.
+#[inline(always)]
+pub fn hypot(a: f64, b: f64) -> f64 {
+    let s = a * a + b * b;
+    if (f64::MIN_POSITIVE..f64::INFINITY).contains(&s) {
+        s.sqrt()
+    } else {
+        a.hypot(b)
+    }
+}

@@ -382,7 +382,16 @@ fn reference_op(op: Op) -> fn(f64, f64) -> f64 {
                 a.max(b)
             }
         },
-        Op::Hypot => |a, b| a.hypot(b),
+        // The language's hypot (`values::hypot`): √(a·a + b·b) where a·a + b·b is normal
+        // and finite, else std's scaled form.
+        Op::Hypot => |a, b| {
+            let s = a * a + b * b;
+            if (f64::MIN_POSITIVE..f64::INFINITY).contains(&s) {
+                s.sqrt()
+            } else {
+                a.hypot(b)
+            }
+        },
         // The child of the dist tape below: the sphere of radius 2.
         Op::Dist => |a, b| (a * a + b * b).sqrt() - 2.0,
     }
@@ -415,7 +424,9 @@ fn same_partial(a: f64, b: f64) -> bool {
     a == b || (a.is_nan() && b.is_nan())
 }
 
-const EDGE: [f64; 14] = [
+// Batches take the points two at a time: pairs of one lane in a range and the other out of
+// it (1e10 with 1e-300 or with 1e200 for `hypot`'s a² + b²) run in both.
+const EDGE: [f64; 15] = [
     0.0,
     -0.0,
     1.0,
@@ -427,6 +438,7 @@ const EDGE: [f64; 14] = [
     1e10,
     -1e10,
     1e-300,
+    1e200,
     f64::INFINITY,
     f64::NEG_INFINITY,
     f64::NAN,
