@@ -14,7 +14,8 @@
 //! into `ops` for each pair of points. `hypot` has one: √(a·a + b·b) where a·a + b·b is a
 //! normal number (`values::hypot`), a lane flag where it is not, and the pair runs again
 //! with the call back where a flag is set (see `Emitter::pair`): a CAD part's cylinders made
-//! sixteen call backs a point. Tapes with `dist` children, or without three inputs, stay on
+//! sixteen call backs a point. So do the gradients of `min max abs sqrt recip`, whose NaN
+//! cases send the pair to the second copy as the unguarded terms' do. Tapes with `dist` children, or without three inputs, stay on
 //! the VM, as does any host Cranelift cannot compile for.
 
 use std::collections::HashMap;
@@ -293,8 +294,9 @@ struct Emitter<'a, 'b> {
     scratch: Option<(StackSlot, SigRef)>,
     /// Whether `term` keeps `ops::term`'s guard (see `pair`).
     guards: bool,
-    /// Whether `hypot` is inlined (the fast copy, see `pair`) or called back.
-    inline_hypot: bool,
+    /// Whether this is a pair's fast copy (see `pair`): `hypot`, and the gradients of `min max
+    /// abs sqrt recip`, inline instead of called back.
+    fast: bool,
     /// The lanes where every inlined `hypot` had a² + b² normal (all ones), once one is.
     hypot_in_range: Option<Value>,
 }
@@ -319,7 +321,7 @@ impl<'a, 'b> Emitter<'a, 'b> {
             splats: HashMap::new(),
             scratch: None,
             guards: true,
-            inline_hypot: false,
+            fast: false,
             hypot_in_range: None,
         }
     }
@@ -431,11 +433,11 @@ impl<'a, 'b> Emitter<'a, 'b> {
     }
 
     /// The tape at the inputs' lanes: the output register (values only, unless computing
-    /// gradients; `guards`: whether `ops::term` keeps its zero guard; `inline_hypot`:
+    /// gradients; `guards`: whether `ops::term` keeps its zero guard; `fast`:
     /// whether `hypot` is inlined, its lanes' range noted for `hypot_out_of_range`).
-    fn run_tape(&mut self, inputs: [Value; 3], guards: bool, inline_hypot: bool) -> Dual {
+    fn run_tape(&mut self, inputs: [Value; 3], guards: bool, fast: bool) -> Dual {
         self.guards = guards;
-        self.inline_hypot = inline_hypot;
+        self.fast = fast;
         self.hypot_in_range = None;
         let mut regs: Vec<Dual> = vec![Dual::value(ZERO); self.tape.registers()];
         for (axis, input) in inputs.into_iter().enumerate() {
@@ -540,7 +542,7 @@ impl<'a, 'b> Emitter<'a, 'b> {
             }
             Op::Square => self.b.ins().fmul(va, va),
             Op::Sqrt => self.b.ins().sqrt(va),
-            Op::Hypot if self.inline_hypot => self.hypot(va, vb),
+            Op::Hypot if self.fast => self.hypot(va, vb),
             Op::Abs => self.b.ins().fabs(va),
             Op::Add => self.b.ins().fadd(va, vb),
             Op::Sub => self.b.ins().fsub(va, vb),
@@ -618,7 +620,11 @@ impl<'a, 'b> Emitter<'a, 'b> {
         let sparse = matches!(
             op,
             Op::Add | Op::Sub | Op::Mul | Op::Div | Op::Neg | Op::Square
-        ) || (op == Op::Hypot && self.inline_hypot);
+        ) || (op == Op::Hypot && self.fast);
+        let chained = self.fast && matches!(op, Op::Min | Op::Max | Op::Abs | Op::Sqrt | Op::Recip);
+        if chained {
+            return self.chained(op, a, b);
+        }
         if !sparse {
             return self.call_back(op, a, b, true);
         }
@@ -675,6 +681,76 @@ impl<'a, 'b> Emitter<'a, 'b> {
                 }
                 _ => ZERO,
             };
+        }
+        Dual { v, d }
+    }
+
+    /// `op a, b` for the fast copy, as `ops::grad` computes it: the value, and the partials
+    /// k·a′ + m·b′ with ops' coefficients k and m, selected lane by lane. Where a coefficient
+    /// is NaN (an operand NaN) the output's partials are NaN and the pair runs again with the
+    /// call back (see `pair`); elsewhere the terms differ from ops' at most in the sign of a
+    /// zero, as the sparse rules do.
+    fn chained(&mut self, op: Op, a: Dual, b: Dual) -> Dual {
+        let binary = op.arity() == Arity::Binary;
+        let v = self.value(op, a.v, b.v);
+        let has = |d: &[Lanes; 3]| d.iter().any(|x| !x.is_zero());
+        if !has(&a.d) && !(binary && has(&b.d)) {
+            return Dual::value(v);
+        }
+        let [zero, one, nan] = [0.0, 1.0, f64::NAN].map(|c| self.vector(Const(c)));
+        let va = self.vector(a.v);
+        let (k, m) = match op {
+            Op::Sqrt => {
+                // 0.5/v, and 0 where v = 0.
+                let vv = self.vector(v);
+                let half = self.value(Op::Div, Const(0.5), Vector(vv));
+                let half = self.vector(half);
+                let at_zero = self.mask(FloatCC::Equal, vv, zero);
+                (self.b.ins().bitselect(at_zero, zero, half), zero)
+            }
+            Op::Recip => {
+                // −v·v
+                let nv = self.value(Op::Neg, v, v);
+                let k = self.value(Op::Mul, nv, v);
+                (self.vector(k), zero)
+            }
+            Op::Abs => {
+                // The sign of a: 1, −1, 0 at ±0, NaN at NaN.
+                let minus_one = self.vector(Const(-1.0));
+                let positive = self.mask(FloatCC::GreaterThan, va, zero);
+                let negative = self.mask(FloatCC::LessThan, va, zero);
+                let at_zero = self.mask(FloatCC::Equal, va, zero);
+                let s = self.b.ins().bitselect(at_zero, zero, nan);
+                let s = self.b.ins().bitselect(negative, minus_one, s);
+                (self.b.ins().bitselect(positive, one, s), zero)
+            }
+            _ => {
+                // min, max: NaN if either is; the mean on a tie; else the chosen operand's.
+                let vb = self.vector(b.v);
+                let cc = if op == Op::Min {
+                    FloatCC::LessThan
+                } else {
+                    FloatCC::GreaterThan
+                };
+                let half = self.vector(Const(0.5));
+                let pick_b = self.mask(cc, vb, va);
+                let tie = self.mask(FloatCC::Equal, va, vb);
+                let either_nan = self.mask(FloatCC::Unordered, va, vb);
+                let mut coefficient = |if_b: Value, if_a: Value| {
+                    let c = self.b.ins().bitselect(pick_b, if_b, if_a);
+                    let c = self.b.ins().bitselect(tie, half, c);
+                    self.b.ins().bitselect(either_nan, nan, c)
+                };
+                (coefficient(zero, one), coefficient(one, zero))
+            }
+        };
+        let mut d = [ZERO; 3];
+        for (i, out) in d.iter_mut().enumerate() {
+            let (ad, bd) = (a.d[i], if binary { b.d[i] } else { ZERO });
+            let (ha, hb) = (!ad.is_zero(), !bd.is_zero());
+            let ta = if ha { self.term(Vector(k), ad) } else { ZERO };
+            let tb = if hb { self.term(Vector(m), bd) } else { ZERO };
+            *out = self.sum(ha, ta, hb, tb);
         }
         Dual { v, d }
     }
