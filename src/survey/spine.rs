@@ -23,6 +23,7 @@ use glam::DVec3;
 use crate::compile::tape::Op;
 use crate::eval::Interval;
 use crate::eval::interval::interval;
+use crate::mesh::bits::BitsHash;
 use crate::surface::{Fault, Surface, ValueGrad};
 use crate::values::interval_grad::IntervalGrad;
 
@@ -270,13 +271,27 @@ impl Spine {
 
     /// f from the branch values and gradients (the gradient of the chosen operands).
     pub fn value_gradient(&self, b: &[ValueGrad]) -> ValueGrad {
-        let v = self.term_values(b);
-        v[v.len() - 1]
+        self.value_gradient_in(b, &mut Vec::new())
+    }
+
+    /// `value_gradient` with the terms' values in `scratch` (a point query's buffer, kept
+    /// between queries rather than allocated for each).
+    fn value_gradient_in(&self, b: &[ValueGrad], scratch: &mut Vec<ValueGrad>) -> ValueGrad {
+        self.term_values_in(b, scratch);
+        scratch[scratch.len() - 1]
     }
 
     /// Every term's value and gradient from the branch values and gradients.
     fn term_values(&self, b: &[ValueGrad]) -> Vec<ValueGrad> {
-        let mut v: Vec<ValueGrad> = Vec::with_capacity(self.terms.len());
+        let mut v = Vec::new();
+        self.term_values_in(b, &mut v);
+        v
+    }
+
+    /// `term_values` into `v` (cleared first).
+    fn term_values_in(&self, b: &[ValueGrad], v: &mut Vec<ValueGrad>) {
+        v.clear();
+        v.reserve(self.terms.len());
         let vg = |value: f64, gradient: DVec3| ValueGrad { value, gradient };
         for t in &self.terms {
             let x = match *t {
@@ -317,7 +332,6 @@ impl Spine {
             };
             v.push(x);
         }
-        v
     }
 
     /// Every form of f (every pattern of choices), each once, in a fixed order; at most
@@ -686,7 +700,11 @@ pub struct Creased {
     /// and those pruned spines: f and its choices at a point need only the branches that
     /// can be chosen near it.
     local_size: Option<f64>,
-    local: HashMap<[i64; 3], Arc<Spine>>,
+    local: HashMap<[i64; 3], Arc<Spine>, BitsHash>,
+    /// The buffers of a point query (`whole`, `active`): the branches' values and the
+    /// terms', reused rather than allocated for each of the crease net's many points.
+    branch_values: Vec<ValueGrad>,
+    term_scratch: Vec<ValueGrad>,
 }
 
 /// The most forms (smooth pieces) of a spine that chooses by selectors (a lifted smooth
@@ -738,7 +756,9 @@ impl Creased {
             at: None,
             cache: vec![None; n],
             local_size: None,
-            local: HashMap::new(),
+            local: HashMap::default(),
+            branch_values: Vec::new(),
+            term_scratch: Vec::new(),
         })
     }
 
@@ -874,15 +894,18 @@ impl Creased {
         Some(value)
     }
 
-    /// The values and gradients of the branches `spine` uses at p (others NaN).
+    /// The values and gradients of the branches `spine` uses at p (others NaN), in
+    /// `branch_values` (taken out of `self` meanwhile: put it back).
     fn branches_of(&mut self, spine: &Spine, p: DVec3) -> Vec<ValueGrad> {
-        let mut out = vec![
+        let mut out = std::mem::take(&mut self.branch_values);
+        out.clear();
+        out.resize(
+            self.branches.len(),
             ValueGrad {
                 value: f64::NAN,
-                gradient: DVec3::NAN
-            };
-            self.branches.len()
-        ];
+                gradient: DVec3::NAN,
+            },
+        );
         for k in spine.branches_used() {
             out[k] = self.branch_at(k, p);
         }
@@ -982,18 +1005,18 @@ impl Creased {
     pub fn whole(&mut self, p: DVec3) -> ValueGrad {
         let spine = self.spine_at(p);
         let b = self.branches_of(&spine, p);
-        spine.value_gradient(&b)
+        let f = spine.value_gradient_in(&b, &mut self.term_scratch);
+        self.branch_values = b;
+        f
     }
 
     /// The forms chosen at p, with every choice within `eps` (function units) of the one
     /// taken counted as a tie: sorted form indices.
     pub fn active(&mut self, p: DVec3, eps: f64) -> Vec<usize> {
         let spine = self.spine_at(p);
-        let values: Vec<f64> = self
-            .branches_of(&spine, p)
-            .iter()
-            .map(|b| b.value)
-            .collect();
+        let b = self.branches_of(&spine, p);
+        let values: Vec<f64> = b.iter().map(|b| b.value).collect();
+        self.branch_values = b;
         let Ok(cands) = spine.candidates(Some((&values, eps)), MAX_CELL_FORMS) else {
             return Vec::new();
         };
