@@ -7,6 +7,8 @@
 //! - any other block is marched as before, and its mesh is then checked: a triangle across a
 //!   crease is an error that asks for a `box`.
 
+use std::collections::HashSet;
+
 use glam::DVec3;
 use serde::Serialize;
 
@@ -16,6 +18,7 @@ use super::crease_net::{self, CreaseError, CreaseSettings, CreasedMesh};
 use crate::compile::CompileError;
 use crate::diag::{Diagnostic, messages};
 use crate::mesh::Mesh;
+use crate::mesh::bits::BitsHash;
 use crate::mesh::progress::Counts;
 use crate::sema::program::MeshDef;
 use crate::surface::Surface;
@@ -94,8 +97,8 @@ pub(super) fn mesh(
 /// part kept has its vertices counted).
 pub(super) fn counts(out: &CreasedMesh) -> CreaseCounts {
     let bits = |p: &DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
-    let in_mesh: std::collections::HashSet<[u64; 3]> = out.mesh.vertices.iter().map(bits).collect();
-    let on_creases: std::collections::HashSet<[u64; 3]> = out
+    let in_mesh: HashSet<[u64; 3], BitsHash> = out.mesh.vertices.iter().map(bits).collect();
+    let on_creases: HashSet<[u64; 3], BitsHash> = out
         .polygons
         .iter()
         .flatten()

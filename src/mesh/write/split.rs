@@ -15,6 +15,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::super::Mesh;
+use crate::mesh::bits::BitsHash;
 
 /// A mesh as a writer that stores a normal per vertex sees it.
 pub(super) struct Split<'a> {
@@ -39,7 +40,7 @@ pub(super) fn split(mesh: &Mesh) -> Split<'_> {
         };
     }
     // Each vertex's side normals, in the order given.
-    let mut sides: HashMap<u32, Vec<DVec3>> = HashMap::new();
+    let mut sides: HashMap<u32, Vec<DVec3>, BitsHash> = HashMap::default();
     for s in &mesh.sides {
         sides.entry(s.vertex).or_default().push(s.normal);
     }
@@ -48,7 +49,7 @@ pub(super) fn split(mesh: &Mesh) -> Split<'_> {
     let mut triangles = mesh.triangles.clone();
     let mut side = vec![false; vertices.len()];
     // (vertex, side) → the vertex of the split mesh that carries it.
-    let mut taken: HashMap<(u32, usize), u32> = HashMap::new();
+    let mut taken: HashMap<(u32, usize), u32, BitsHash> = HashMap::default();
     for tri in &mut triangles {
         if !tri.iter().any(|v| sides.contains_key(v)) {
             continue;

@@ -7,6 +7,7 @@ use std::collections::{BTreeMap, HashMap};
 use glam::DVec3;
 
 use crate::mesh::Mesh;
+use crate::mesh::bits::BitsHash;
 use crate::mesh::check::closest_on_triangle;
 use crate::survey::cells::Cell;
 
@@ -18,7 +19,7 @@ use crate::survey::cells::Cell;
 pub(super) struct Cover {
     step: f64,
     /// Per size level l: the cells (of side `step · 2^l`) and their triangles.
-    levels: BTreeMap<i32, HashMap<[i64; 3], Vec<u32>>>,
+    levels: BTreeMap<i32, HashMap<[i64; 3], Vec<u32>, BitsHash>>,
 }
 
 /// Size levels are clamped to this range (2⁻⁴⁰ to 2⁸ steps): a degenerate or huge triangle

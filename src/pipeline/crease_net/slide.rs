@@ -31,6 +31,7 @@ use super::join::bits;
 use super::trace::{Traced, seam_point};
 use crate::march::Held;
 use crate::mesh::Mesh;
+use crate::mesh::bits::BitsHash;
 use crate::mesh::quality::radius_ratio;
 use crate::solve::tangent_frame;
 use crate::survey::faces;
@@ -77,7 +78,7 @@ pub(super) fn slide(
     traced: &[Traced],
     limits: &Limits,
 ) -> usize {
-    let index: HashMap<[u64; 3], u32> = mesh
+    let index: HashMap<[u64; 3], u32, BitsHash> = mesh
         .vertices
         .iter()
         .enumerate()
@@ -244,7 +245,7 @@ fn near_creases(
         }
         front = next;
     }
-    let sided: HashSet<u32> = mesh.sides.iter().map(|s| s.vertex).collect();
+    let sided: HashSet<u32, BitsHash> = mesh.sides.iter().map(|s| s.vertex).collect();
     out.retain(|v| !sided.contains(v));
     out.sort_unstable();
     out
@@ -525,7 +526,8 @@ pub(super) fn held(
     (lo, hi): (DVec3, DVec3),
     target: f64,
 ) -> Option<Held> {
-    let on_crease: HashSet<[u64; 3]> = polygons.iter().flatten().map(|&p| bits(p)).collect();
+    let on_crease: HashSet<[u64; 3], BitsHash> =
+        polygons.iter().flatten().map(|&p| bits(p)).collect();
     let fixed =
         |p: DVec3| on_crease.contains(&bits(p)) || (0..3).any(|k| p[k] == lo[k] || p[k] == hi[k]);
     let sin_target = target.sin();
