@@ -693,14 +693,19 @@ pub struct Creased {
     /// Pairs of forms (smaller first) never made one face: one sheet on part of the surface
     /// only, with a crease between them elsewhere (`keep_apart`).
     apart: HashSet<(usize, usize)>,
-    /// The branches' values and gradients at `at` (the last point asked), as far as asked.
+    /// The branches' values and gradients at `at` (the last point asked), as far as asked:
+    /// an entry is valid when its generation is `generation`, which a new point advances
+    /// (rather than clearing an entry per branch at every point).
     at: Option<[u64; 3]>,
-    cache: Vec<Option<ValueGrad>>,
+    generation: u64,
+    cache: Vec<(u64, ValueGrad)>,
     /// The side of the cells over which the spine is pruned for point queries (`localize`),
     /// and those pruned spines: f and its choices at a point need only the branches that
     /// can be chosen near it.
     local_size: Option<f64>,
     local: HashMap<[i64; 3], Arc<Spine>, BitsHash>,
+    /// The cell of the last point query and its pruned spine.
+    last_local: Option<([i64; 3], Arc<Spine>)>,
     /// The buffers of a point query (`whole`, `active`): the branches' values and the
     /// terms', reused rather than allocated for each of the crease net's many points.
     branch_values: Vec<ValueGrad>,
@@ -754,9 +759,20 @@ impl Creased {
             parent,
             apart: HashSet::new(),
             at: None,
-            cache: vec![None; n],
+            generation: 1,
+            cache: vec![
+                (
+                    0,
+                    ValueGrad {
+                        value: f64::NAN,
+                        gradient: DVec3::NAN,
+                    },
+                );
+                n
+            ],
             local_size: None,
             local: HashMap::default(),
+            last_local: None,
             branch_values: Vec::new(),
             term_scratch: Vec::new(),
         })
@@ -769,6 +785,7 @@ impl Creased {
         if !self.enumerated && size.is_finite() && size > 0.0 {
             self.local_size = Some(size);
             self.local.clear();
+            self.last_local = None;
         }
     }
 
@@ -778,8 +795,16 @@ impl Creased {
             return self.spine.clone();
         };
         let key = (p / size).floor().to_array().map(|c| c as i64);
-        if let Some(s) = self.local.get(&key) {
+        // Point queries come in runs in one cell (a Newton solve, a star's points).
+        if let Some((last, s)) = &self.last_local
+            && *last == key
+        {
             return s.clone();
+        }
+        if let Some(s) = self.local.get(&key) {
+            let s = s.clone();
+            self.last_local = Some((key, s.clone()));
+            return s;
         }
         // The cell and a margin, so that a point on its boundary is well inside.
         let lo = DVec3::from(key.map(|c| c as f64)) * size - DVec3::splat(0.01 * size);
@@ -790,6 +815,7 @@ impl Creased {
             .pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
         let pruned = Arc::new(pruned);
         self.local.insert(key, pruned.clone());
+        self.last_local = Some((key, pruned.clone()));
         pruned
     }
 
@@ -894,11 +920,11 @@ impl Creased {
         Some(value)
     }
 
-    /// The values and gradients of the branches `spine` uses at p (others NaN), in
-    /// `branch_values` (taken out of `self` meanwhile: put it back).
+    /// The values and gradients of the branches `spine` uses at p, in `branch_values`
+    /// (taken out of `self` meanwhile: put it back). The others hold what an earlier point
+    /// left there, or NaN: `spine` reads only the branches it uses.
     fn branches_of(&mut self, spine: &Spine, p: DVec3) -> Vec<ValueGrad> {
         let mut out = std::mem::take(&mut self.branch_values);
-        out.clear();
         out.resize(
             self.branches.len(),
             ValueGrad {
@@ -945,13 +971,14 @@ impl Creased {
         let bits = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
         if self.at != Some(bits) {
             self.at = Some(bits);
-            self.cache.iter_mut().for_each(|c| *c = None);
+            self.generation += 1;
         }
-        if let Some(v) = self.cache[k] {
+        let (generation, v) = self.cache[k];
+        if generation == self.generation {
             return v;
         }
         let v = self.branches[k].value_gradient(p);
-        self.cache[k] = Some(v);
+        self.cache[k] = (self.generation, v);
         v
     }
 
