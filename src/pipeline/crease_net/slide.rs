@@ -145,7 +145,7 @@ pub(super) fn slide(
             let old_normal = mesh.normals[v as usize];
             let tris = &star[v as usize];
             let now = score(mesh, tris, v, p, old_normal, &old_sides);
-            let mut best: Option<(DVec3, Normals, Score)> = None;
+            let mut candidates: Vec<(DVec3, Normals, Score)> = Vec::new();
             for t in TRIES {
                 let guess = p + t * reach * tangent;
                 let (i, j) = traced[k].forms;
@@ -176,15 +176,13 @@ pub(super) fn slide(
                     continue;
                 };
                 let s = score(mesh, tris, v, q, normals.normal, &normals.sides);
-                if !s.valid(&now) || !better(&now, &s, best.as_ref().map(|b| &b.2)) {
-                    continue;
+                if s.valid(&now) && better(&now, &s, None) {
+                    candidates.push((q, normals, s));
                 }
-                if !within_chord(c, mesh, tris, v, q, limits.tolerance) {
-                    continue;
-                }
-                best = Some((q, normals, s));
             }
-            let Some((q, normals, _)) = best else {
+            let Some((q, normals)) =
+                best_within_chord(c, mesh, tris, v, &now, candidates, limits.tolerance)
+            else {
                 continue;
             };
             mesh.vertices[v as usize] = q;
@@ -279,7 +277,7 @@ fn smooth_near(
         let centroid = ring.iter().sum::<DVec3>() / ring.len() as f64;
         let old_normal = mesh.normals[v as usize];
         let now = score(mesh, tris, v, p, old_normal, &[]);
-        let mut best: Option<(DVec3, DVec3, Score)> = None;
+        let mut candidates: Vec<(DVec3, DVec3, Score)> = Vec::new();
         // Towards the centroid; and where the star holds an angle below `KEEP_ANGLE`, also
         // around the vertex (`AROUND`): a free corner between a crease corner and the
         // crease's next vertex may need to move sideways, not to the centroid, for its
@@ -309,15 +307,13 @@ fn smooth_near(
                 continue;
             }
             let s = score(mesh, tris, v, q, normal, &[]);
-            if !s.valid(&now) || !better(&now, &s, best.as_ref().map(|b| &b.2)) {
-                continue;
+            if s.valid(&now) && better(&now, &s, None) {
+                candidates.push((q, normal, s));
             }
-            if !within_chord(c, mesh, tris, v, q, limits.tolerance) {
-                continue;
-            }
-            best = Some((q, normal, s));
         }
-        if let Some((q, normal, _)) = best {
+        if let Some((q, normal)) =
+            best_within_chord(c, mesh, tris, v, &now, candidates, limits.tolerance)
+        {
             mesh.vertices[v as usize] = q;
             mesh.normals[v as usize] = normal;
             moved += 1;
@@ -489,6 +485,32 @@ fn score(mesh: &Mesh, tris: &[u32], v: u32, q: DVec3, normal: DVec3, sides: &[DV
     out
 }
 
+/// Of `candidates` (places q for v in the order tried, each with what moves with it, each
+/// valid and gaining on `now`), the one a move takes: the best by `better`'s measure, the
+/// first tried among equals, whose star is `within_chord`. The chord is checked down that
+/// ranking until a place passes — the place that keeping each candidate better than the
+/// best so far and within the chord gives, with fewer checks (a check evaluates f at every
+/// centroid and edge midpoint of the star).
+fn best_within_chord<T>(
+    c: &mut Creased,
+    mesh: &Mesh,
+    tris: &[u32],
+    v: u32,
+    now: &Score,
+    mut candidates: Vec<(DVec3, T, Score)>,
+    tolerance: f64,
+) -> Option<(DVec3, T)> {
+    let by_angle = now.min_sine < KEEP_ANGLE.sin();
+    let measure = |s: &Score| if by_angle { s.min_sine } else { s.ratios };
+    // Gaining on `now` makes the measures numbers (a NaN compares false). Stable: the first
+    // tried leads among equals.
+    candidates.sort_by(|a, b| measure(&b.2).total_cmp(&measure(&a.2)));
+    candidates
+        .into_iter()
+        .find(|(q, _, _)| within_chord(c, mesh, tris, v, *q, tolerance))
+        .map(|(q, moved, _)| (q, moved))
+}
+
 /// The centroids of the star's triangles and the midpoints of its edges at v, with v at q,
 /// are within `tolerance` of the surface by the linear estimate |f|/|∇f|.
 fn within_chord(
@@ -504,15 +526,21 @@ fn within_chord(
         let g = f.gradient.length();
         g > 0.0 && f.value.abs() <= tolerance * g
     };
+    // An edge at v is in two triangles of the star: its midpoint, once it passed, is not
+    // evaluated again.
+    let mut passed: Vec<u32> = Vec::with_capacity(tris.len() + 1);
     tris.iter().all(|&t| {
         let tri = mesh.triangles[t as usize];
         let at = |k: u32| if k == v { q } else { mesh.vertices[k as usize] };
         let [a, b, d] = tri.map(at);
         near(c, (a + b + d) / 3.0)
-            && tri
-                .iter()
-                .filter(|&&k| k != v)
-                .all(|&k| near(c, 0.5 * (q + mesh.vertices[k as usize])))
+            && tri.iter().filter(|&&k| k != v).all(|&k| {
+                if passed.contains(&k) {
+                    return true;
+                }
+                passed.push(k);
+                near(c, 0.5 * (q + mesh.vertices[k as usize]))
+            })
     })
 }
 
