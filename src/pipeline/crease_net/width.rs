@@ -207,6 +207,12 @@ fn onto_form(t: &mut Tracer<'_>, form: usize, mut q: DVec3) -> Option<DVec3> {
         if !(g2 > 0.0 && l.value.is_finite()) {
             return None;
         }
+        // On the zero set (a plane's form after one step): the steps left would move no
+        // coordinate, unless one is a zero whose sign a step could flip (or an infinite
+        // partial made the step NaN).
+        if l.value == 0.0 && g2.is_finite() && !q.cmpeq(DVec3::ZERO).any() {
+            break;
+        }
         q -= l.gradient * (l.value / g2);
     }
     Some(q)
