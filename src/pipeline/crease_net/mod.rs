@@ -593,7 +593,14 @@ fn mesh_creased_once(
         .extend(found.warnings.iter().map(ToString::to_string));
     out.warnings.extend(found.march_warnings);
     out.smooth_components = found.components;
-    out.mesh = merge(&[found.mesh]);
+    // The search's mesh begins with the pieces' (merged above: each position once, normals
+    // summed from +0, sides sorted); merged again it would be the same bits, so only
+    // components found beside them are merged in.
+    out.mesh = if found.mesh.triangles.len() == pieces.triangles.len() {
+        found.mesh
+    } else {
+        merge(&[found.mesh])
+    };
     groups.resize(out.mesh.triangles.len(), ANY_GROUP);
     // The crease vertices slid along their creases (`slide`), where the quality stage runs:
     // the mesh as marched is kept where the slid one fails the joined check.
