@@ -367,21 +367,17 @@ impl<'a, 'b> Emitter<'a, 'b> {
             let fast = self.run_tape(inputs, false, true);
             let fast = self.vector(fast.v);
             let again = self.hypot_out_of_range();
-            let (slow, store_fast, done) = (
-                self.b.create_block(),
-                self.b.create_block(),
-                self.b.create_block(),
+            self.keep_or_redo(
+                again,
+                |e| {
+                    e.b.ins().store(flags, fast, base, 0);
+                },
+                |e| {
+                    let slow = e.run_tape(inputs, false, false);
+                    let slow = e.vector(slow.v);
+                    e.b.ins().store(flags, slow, base, 0);
+                },
             );
-            self.b.ins().brif(again, slow, &[], store_fast, &[]);
-            self.b.switch_to_block(store_fast);
-            self.b.ins().store(flags, fast, base, 0);
-            self.b.ins().jump(done, &[]);
-            self.b.switch_to_block(slow);
-            let slow = self.run_tape(inputs, false, false);
-            let slow = self.vector(slow.v);
-            self.b.ins().store(flags, slow, base, 0);
-            self.b.ins().jump(done, &[]);
-            self.b.switch_to_block(done);
             return;
         }
         let base = self.b.ins().imul_imm_u(at, (WIDTH * 32) as i64);
@@ -401,20 +397,37 @@ impl<'a, 'b> Emitter<'a, 'b> {
         let nan = self.b.ins().bitcast(I64X2, MemFlagsData::new(), nan);
         let any_nan = self.b.ins().vany_true(nan);
         let hypot_again = self.hypot_out_of_range();
-        let any_nan = self.b.ins().bor(any_nan, hypot_again);
-        let (guarded, store_fast, done) = (
+        let again = self.b.ins().bor(any_nan, hypot_again);
+        self.keep_or_redo(
+            again,
+            |e| e.store_grads(fast, base, flags),
+            |e| {
+                let slow = e.run_tape(inputs, true, false);
+                let slow = e.components(slow);
+                e.store_grads(slow, base, flags);
+            },
+        );
+    }
+
+    /// Where `again` (an i8) is 0, `keep` (the fast copy's stores); else `redo` (the pair
+    /// run again). Leaves the builder in the block after both.
+    fn keep_or_redo(
+        &mut self,
+        again: Value,
+        keep: impl FnOnce(&mut Self),
+        redo: impl FnOnce(&mut Self),
+    ) {
+        let (slow, fast, done) = (
             self.b.create_block(),
             self.b.create_block(),
             self.b.create_block(),
         );
-        self.b.ins().brif(any_nan, guarded, &[], store_fast, &[]);
-        self.b.switch_to_block(store_fast);
-        self.store_grads(fast, base, flags);
+        self.b.ins().brif(again, slow, &[], fast, &[]);
+        self.b.switch_to_block(fast);
+        keep(self);
         self.b.ins().jump(done, &[]);
-        self.b.switch_to_block(guarded);
-        let slow = self.run_tape(inputs, true, false);
-        let slow = self.components(slow);
-        self.store_grads(slow, base, flags);
+        self.b.switch_to_block(slow);
+        redo(self);
         self.b.ins().jump(done, &[]);
         self.b.switch_to_block(done);
     }
