@@ -14,7 +14,7 @@ pub use oracle::{Fault, Surface, ValueGrad};
 
 /// √(a² + b²), the one `hypot` of the language: the constant folder, the VM, the native code
 /// (which has it in vector form, `eval::native`) and the interval bounds all compute this.
-/// Where a² + b² is a normal finite number it is `(a·a + b·b).sqrt()` — three correctly
+/// Where a² + b² is a normal finite number it is `(a·a + b·b).sqrt()` — four correctly
 /// rounded operations, within about an ulp of the exact value, the same bits in scalar and
 /// vector code and on any libm; elsewhere (overflow, underflow, ∞, NaN) the host's
 /// `f64::hypot`, which scales, so hypot(1e200, 1) is 1e200 and hypot(∞, NaN) is ∞. The first
