@@ -707,7 +707,7 @@ impl<'a, 'b> Emitter<'a, 'b> {
         let binary = op.arity() == Arity::Binary;
         let v = self.value(op, a.v, b.v);
         let has = |d: &[Lanes; 3]| d.iter().any(|x| !x.is_zero());
-        if !has(&a.d) && !(binary && has(&b.d)) {
+        if !(has(&a.d) || binary && has(&b.d)) {
             return Dual::value(v);
         }
         let [zero, one, nan] = [0.0, 1.0, f64::NAN].map(|c| self.vector(Const(c)));
