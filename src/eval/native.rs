@@ -633,8 +633,12 @@ impl<'a, 'b> Emitter<'a, 'b> {
         let sparse = matches!(
             op,
             Op::Add | Op::Sub | Op::Mul | Op::Div | Op::Neg | Op::Square
-        ) || (op == Op::Hypot && self.fast);
-        let chained = self.fast && matches!(op, Op::Min | Op::Max | Op::Abs | Op::Sqrt | Op::Recip);
+        );
+        let chained = self.fast
+            && matches!(
+                op,
+                Op::Min | Op::Max | Op::Abs | Op::Sqrt | Op::Recip | Op::Hypot
+            );
         if chained {
             return self.chained(op, a, b);
         }
@@ -671,23 +675,6 @@ impl<'a, 'b> Emitter<'a, 'b> {
                     self.sum(ha, ta, hb, tb)
                 }
                 (Op::Neg, _, _) => self.value(Op::Neg, ad, ad),
-                (Op::Hypot, _, _) => {
-                    // `ops::grad`: a/v·a' + b/v·b' (v > 0 where inlined: a² + b² is normal).
-                    let inv = self.value(Op::Div, Const(1.0), v);
-                    let ta = if ha {
-                        let k = self.value(Op::Mul, a.v, inv);
-                        self.term(k, ad)
-                    } else {
-                        ZERO
-                    };
-                    let tb = if hb {
-                        let m = self.value(Op::Mul, b.v, inv);
-                        self.term(m, bd)
-                    } else {
-                        ZERO
-                    };
-                    self.sum(ha, ta, hb, tb)
-                }
                 (Op::Square, _, _) => {
                     let twice = self.value(Op::Mul, Const(2.0), a.v);
                     self.term(twice, ad)
@@ -701,8 +688,8 @@ impl<'a, 'b> Emitter<'a, 'b> {
     /// `op a, b` for the fast copy, as `ops::grad` computes it: the value, and the partials
     /// k·a′ + m·b′ with ops' coefficients k and m, selected lane by lane. Where a coefficient
     /// is NaN (an operand NaN) the output's partials are NaN and the pair runs again with the
-    /// call back (see `pair`); elsewhere the terms differ from ops' at most in the sign of a
-    /// zero, as the sparse rules do.
+    /// call back (see `pair`), as it does where an inlined `hypot` flags a lane; elsewhere the
+    /// terms differ from ops' at most in the sign of a zero, as the sparse rules do.
     fn chained(&mut self, op: Op, a: Dual, b: Dual) -> Dual {
         let binary = op.arity() == Arity::Binary;
         let v = self.value(op, a.v, b.v);
@@ -713,6 +700,13 @@ impl<'a, 'b> Emitter<'a, 'b> {
         let [zero, one, nan] = [0.0, 1.0, f64::NAN].map(|c| self.vector(Const(c)));
         let va = self.vector(a.v);
         let (k, m) = match op {
+            Op::Hypot => {
+                // a/v, b/v (v > 0 where inlined: a² + b² is normal; elsewhere the lane's flag
+                // runs the pair again).
+                let inv = self.value(Op::Div, Const(1.0), v);
+                let (k, m) = (self.value(Op::Mul, a.v, inv), self.value(Op::Mul, b.v, inv));
+                (self.vector(k), self.vector(m))
+            }
             Op::Sqrt => {
                 // 0.5/v, and 0 where v = 0.
                 let vv = self.vector(v);

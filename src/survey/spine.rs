@@ -706,8 +706,9 @@ pub struct Creased {
     local: HashMap<[i64; 3], Arc<Spine>, BitsHash>,
     /// The cell of the last point query and its pruned spine.
     last_local: Option<([i64; 3], Arc<Spine>)>,
-    /// The buffers of a point query (`whole`, `active`): the branches' values and the
-    /// terms', reused rather than allocated for each of the crease net's many points.
+    /// The buffers of a point query (`whole`, `active`): the branches' values
+    /// (`branches_of`) and the terms', reused rather than allocated for each of the crease
+    /// net's many points.
     branch_values: Vec<ValueGrad>,
     term_scratch: Vec<ValueGrad>,
 }
@@ -920,12 +921,11 @@ impl Creased {
         Some(value)
     }
 
-    /// The values and gradients of the branches `spine` uses at p, in `branch_values`
-    /// (taken out of `self` meanwhile: put it back). The others hold what an earlier point
-    /// left there, or NaN: `spine` reads only the branches it uses.
-    fn branches_of(&mut self, spine: &Spine, p: DVec3) -> Vec<ValueGrad> {
-        let mut out = std::mem::take(&mut self.branch_values);
-        out.resize(
+    /// The values and gradients of the branches `spine` uses at p, into `branch_values`.
+    /// The others hold what an earlier point left there, or NaN: `spine` reads only the
+    /// branches it uses.
+    fn branches_of(&mut self, spine: &Spine, p: DVec3) {
+        self.branch_values.resize(
             self.branches.len(),
             ValueGrad {
                 value: f64::NAN,
@@ -933,9 +933,9 @@ impl Creased {
             },
         );
         for k in spine.branches_used() {
-            out[k] = self.branch_at(k, p);
+            let v = self.branch_at(k, p);
+            self.branch_values[k] = v;
         }
-        out
     }
 
     /// The forms registered so far (all of them for a spine with selectors).
@@ -1031,19 +1031,16 @@ impl Creased {
     /// Value and gradient of f at p, through the spine.
     pub fn whole(&mut self, p: DVec3) -> ValueGrad {
         let spine = self.spine_at(p);
-        let b = self.branches_of(&spine, p);
-        let f = spine.value_gradient_in(&b, &mut self.term_scratch);
-        self.branch_values = b;
-        f
+        self.branches_of(&spine, p);
+        spine.value_gradient_in(&self.branch_values, &mut self.term_scratch)
     }
 
     /// The forms chosen at p, with every choice within `eps` (function units) of the one
     /// taken counted as a tie: sorted form indices.
     pub fn active(&mut self, p: DVec3, eps: f64) -> Vec<usize> {
         let spine = self.spine_at(p);
-        let b = self.branches_of(&spine, p);
-        let values: Vec<f64> = b.iter().map(|b| b.value).collect();
-        self.branch_values = b;
+        self.branches_of(&spine, p);
+        let values: Vec<f64> = self.branch_values.iter().map(|b| b.value).collect();
         let Ok(cands) = spine.candidates(Some((&values, eps)), MAX_CELL_FORMS) else {
             return Vec::new();
         };
