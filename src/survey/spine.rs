@@ -702,8 +702,11 @@ pub struct Creased {
     /// The side of the cells over which the spine is pruned for point queries (`localize`),
     /// and those pruned spines: f and its choices at a point need only the branches that
     /// can be chosen near it.
+    /// Cells of `LOCAL_LEVELS` sizes are kept: `local_size`·2^level, each pruned from the
+    /// spine of the cell one level up that holds it (the whole spine above the top level),
+    /// so that a cell's pruning bounds only the few branches its parent left.
     local_size: Option<f64>,
-    local: HashMap<[i64; 3], Arc<Spine>, BitsHash>,
+    local: HashMap<(u32, [i64; 3]), Arc<Spine>, BitsHash>,
     /// The cell of the last point query and its pruned spine.
     last_local: Option<([i64; 3], Arc<Spine>)>,
     /// The buffers of a point query (`whole`, `active`): the branches' values
@@ -721,6 +724,10 @@ pub const MAX_FORMS: usize = 64;
 /// The most forms one octree cell of the crease search may pick among: a pattern explosion
 /// (sums of many `abs`), not a solid.
 pub const MAX_CELL_FORMS: usize = 4096;
+
+/// How many sizes of cells a `localize`d spine is pruned over: its cells and those 2, 4, …
+/// 32 times as wide (128 steps for the crease net's four).
+const LOCAL_LEVELS: u32 = 6;
 
 impl Creased {
     pub fn new(spine: Spine, branches: Vec<Box<dyn Surface>>) -> Result<Creased, SpineError> {
@@ -802,31 +809,50 @@ impl Creased {
         {
             return s.clone();
         }
-        if let Some(s) = self.local.get(&key) {
-            let s = s.clone();
-            self.last_local = Some((key, s.clone()));
-            return s;
+        let s = self.local_spine(0, key, size);
+        self.last_local = Some((key, s.clone()));
+        s
+    }
+
+    /// The spine pruned over cell `key` of side `size`·2^level (and a margin, so that a
+    /// point on its boundary is well inside), pruned from its parent cell's spine. The same
+    /// spine as the whole one pruned over the cell: a choice decided over the parent is
+    /// decided the same way over the cell inside it, whose bounds lie in the parent's, and a
+    /// decided term's interval is its chosen operand's.
+    fn local_spine(&mut self, level: u32, key: [i64; 3], size: f64) -> Arc<Spine> {
+        if let Some(s) = self.local.get(&(level, key)) {
+            return s.clone();
         }
-        // The cell and a margin, so that a point on its boundary is well inside.
+        let base = if level + 1 < LOCAL_LEVELS {
+            self.local_spine(level + 1, key.map(|c| c.div_euclid(2)), 2.0 * size)
+        } else {
+            self.spine.clone()
+        };
         let lo = DVec3::from(key.map(|c| c as f64)) * size - DVec3::splat(0.01 * size);
         let hi = lo + DVec3::splat(1.02 * size);
         let branches = &mut self.branches;
-        let (pruned, _) = self
-            .spine
-            .pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
+        let (pruned, _) =
+            base.pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
         let pruned = Arc::new(pruned);
-        self.local.insert(key, pruned.clone());
-        self.last_local = Some((key, pruned.clone()));
+        self.local.insert((level, key), pruned.clone());
         pruned
     }
 
-    /// The spine to prune over the box lo..hi: the pruned spine of the `localize`d cell that
-    /// holds the box, or the whole spine.
+    /// The spine to prune over the box lo..hi: the pruned spine of the smallest `localize`d
+    /// cell that holds the box, or the whole spine.
     fn base_for(&mut self, lo: DVec3, hi: DVec3) -> Arc<Spine> {
         if let Some(size) = self.local_size {
-            let (a, b) = ((lo / size).floor(), (hi / size).floor());
-            if a == b {
-                return self.spine_at(0.5 * (lo + hi));
+            let mut side = size;
+            for level in 0..LOCAL_LEVELS {
+                let (a, b) = ((lo / side).floor(), (hi / side).floor());
+                if a == b {
+                    return if level == 0 {
+                        self.spine_at(0.5 * (lo + hi))
+                    } else {
+                        self.local_spine(level, a.to_array().map(|c| c as i64), side)
+                    };
+                }
+                side *= 2.0;
             }
         }
         self.spine.clone()
@@ -1409,6 +1435,78 @@ mod tests {
         assert!(!creased.gradient_may_face(face.0, face.1, [u, w]));
         // The opposite direction is an extreme too (the smallest d·p): the same answers.
         assert!(creased.gradient_may_face(corner.0, corner.1, [-u, w]));
+    }
+
+    /// A localized spine's pruning from the cells above (`base_for`, `spine_at`) against the
+    /// whole spine pruned over the same box, on random CSG trees of planes (min, max, abs,
+    /// sums) and boxes of every size: the same terms and the same bound, bit for bit.
+    #[test]
+    fn pruning_from_the_cells_above_is_pruning_the_whole() {
+        let mut next = crate::testing::uniform(0x9e37_79b9_7f4a_7c15);
+        for _ in 0..40 {
+            let n = 3 + (next() * 10.0) as usize;
+            let mut terms: Vec<Term> = (0..n).map(Term::Branch).collect();
+            // Combine the last term with a random earlier one until one root is left.
+            let mut open: Vec<usize> = (0..n).collect();
+            while open.len() > 1 {
+                let a = open.remove((next() * open.len() as f64) as usize);
+                let b = open.remove((next() * open.len() as f64) as usize);
+                let (a, b) = (a.min(b), a.max(b));
+                let t = match (next() * 5.0) as usize {
+                    0 => Term::Min(a, b),
+                    1 => Term::Max(a, b),
+                    2 => {
+                        terms.push(Term::Abs(a));
+                        Term::Min(terms.len() - 1, b)
+                    }
+                    3 => Term::Add(a, b),
+                    _ => {
+                        terms.push(Term::Neg(b));
+                        Term::Max(a, terms.len() - 1)
+                    }
+                };
+                terms.push(t);
+                open.push(terms.len() - 1);
+            }
+            let spine = Spine::new(terms, n).unwrap();
+            let branches: Vec<Box<dyn Surface>> = (0..n)
+                .map(|_| {
+                    let d = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+                    Box::new(Plane(d.normalize(), 0.3 * (next() - 0.5))) as Box<dyn Surface>
+                })
+                .collect();
+            let size = 0.01 + 0.05 * next();
+            let mut localized = Creased::new(spine.clone(), branches).unwrap();
+            localized.localize(size);
+            for _ in 0..200 {
+                let c = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+                let half = size * 40f64.powf(next()) * next();
+                let (lo, hi) = (c - DVec3::splat(half), c + DVec3::splat(half));
+                let base = localized.base_for(lo, hi);
+                let branches = &mut localized.branches;
+                let from_cells =
+                    base.pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
+                let whole =
+                    spine.pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
+                assert_eq!(from_cells.0, whole.0);
+                assert_eq!(
+                    (from_cells.1.lo.to_bits(), from_cells.1.hi.to_bits()),
+                    (whole.1.lo.to_bits(), whole.1.hi.to_bits())
+                );
+                // The point query's spine is the whole one pruned over the point's cell.
+                let key = (c / size).floor();
+                let cell_lo = key * size - DVec3::splat(0.01 * size);
+                let cell_hi = cell_lo + DVec3::splat(1.02 * size);
+                let at = localized.spine_at(c);
+                let branches = &mut localized.branches;
+                let cell = spine.pruned(&mut |k| {
+                    branches[k]
+                        .bound(cell_lo, cell_hi)
+                        .unwrap_or(Interval::ENTIRE)
+                });
+                assert_eq!(*at, cell.0);
+            }
+        }
     }
 
     /// `origin_may_be_in_hull` against a scan of 3 600 directions on random point sets: a
