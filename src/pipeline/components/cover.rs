@@ -16,11 +16,19 @@ use crate::survey::cells::Cell;
 /// side. A query then looks at a few cells of each grid, each holding a few triangles, also
 /// where the local step made triangles far below the step (a thin shell at step/50 put
 /// thousands of triangles into one cell of side `step`, and the search spent minutes here).
+/// A cell's triangles are a chain through `next` from the cell's last one: one hash entry a
+/// cell and no list of its own (the pieces of a creased surface, hundreds of thousands of
+/// triangles, are hashed at once).
 pub(super) struct Cover {
     step: f64,
-    /// Per size level l: the cells (of side `step · 2^l`) and their triangles.
-    levels: BTreeMap<i32, HashMap<[i64; 3], Vec<u32>, BitsHash>>,
+    /// Per size level l: the cells (of side `step · 2^l`) and their last triangle.
+    levels: BTreeMap<i32, HashMap<[i64; 3], u32, BitsHash>>,
+    /// Each triangle's predecessor in its cell, or `END`.
+    next: Vec<u32>,
 }
+
+/// The end of a cell's chain.
+const END: u32 = u32::MAX;
 
 /// Size levels are clamped to this range (2⁻⁴⁰ to 2⁸ steps): a degenerate or huge triangle
 /// goes to an end level, where it is still found (the cells searched cover its reach).
@@ -31,6 +39,7 @@ impl Cover {
         Cover {
             step,
             levels: BTreeMap::new(),
+            next: Vec::new(),
         }
     }
 
@@ -46,7 +55,7 @@ impl Cover {
     /// Appends `part` to `mesh` and hashes its triangles.
     pub(super) fn add(&mut self, mesh: &mut Mesh, part: &Mesh) {
         let offset = mesh.vertices.len() as u32;
-        let first = mesh.triangles.len() as u32;
+        let first = mesh.triangles.len();
         mesh.vertices.extend_from_slice(&part.vertices);
         mesh.normals.extend_from_slice(&part.normals);
         mesh.sides
@@ -56,19 +65,52 @@ impl Cover {
             }));
         mesh.triangles
             .extend(part.triangles.iter().map(|t| t.map(|v| v + offset)));
-        for (t, tri) in mesh.triangles.iter().enumerate().skip(first as usize) {
+        self.hash_from(mesh, first);
+    }
+
+    /// `add`, taking `part` as the mesh where `mesh` is empty (the pieces of a creased
+    /// surface: no copy of hundreds of thousands of triangles).
+    pub(super) fn adopt(&mut self, mesh: &mut Mesh, part: Mesh) {
+        if mesh.vertices.is_empty() && mesh.triangles.is_empty() && mesh.sides.is_empty() {
+            *mesh = part;
+            self.hash_from(mesh, 0);
+        } else {
+            self.add(mesh, &part);
+        }
+    }
+
+    /// Hashes the triangles of `mesh` from `first` on.
+    fn hash_from(&mut self, mesh: &Mesh, first: usize) {
+        // Triangles of `mesh` from before the cover (none, as the search makes it) are
+        // in no chain.
+        self.next.resize(first, END);
+        self.next.reserve(mesh.triangles.len() - first);
+        for (t, tri) in mesh.triangles.iter().enumerate().skip(first) {
             let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
             let edge = a.distance(b).max(b.distance(c)).max(c.distance(a));
             let level =
                 ((edge / self.step).log2().ceil() as i32).clamp(COVER_LEVELS.0, COVER_LEVELS.1);
             let side = self.side(level);
-            self.levels
+            let last = self
+                .levels
                 .entry(level)
                 .or_default()
                 .entry(Cover::key(side, (a + b + c) / 3.0))
-                .or_default()
-                .push(t as u32);
+                .or_insert(END);
+            self.next.push(*last);
+            *last = t as u32;
         }
+    }
+
+    /// Whether `found` holds for a triangle of the cell whose chain ends at `last`.
+    fn any_in(&self, mut last: u32, found: &mut impl FnMut(u32) -> bool) -> bool {
+        while last != END {
+            if found(last) {
+                return true;
+            }
+            last = self.next[last as usize];
+        }
+        false
     }
 
     /// Calls `found` with the triangles of every level whose centroid cell meets the box
@@ -79,7 +121,7 @@ impl Cover {
         lo: DVec3,
         hi: DVec3,
         grow: impl Fn(f64) -> f64,
-        mut found: impl FnMut(&[u32]) -> bool,
+        mut found: impl FnMut(u32) -> bool,
     ) -> bool {
         for (&level, cells) in &self.levels {
             let side = self.side(level);
@@ -88,7 +130,10 @@ impl Cover {
             let span = (0..3).fold(1.0, |n, i| n * ((b[i] - a[i]) as f64 + 1.0));
             let inside = |k: &[i64; 3]| (0..3).all(|i| a[i] <= k[i] && k[i] <= b[i]);
             if span > cells.len() as f64 {
-                if cells.iter().any(|(k, ts)| inside(k) && found(ts)) {
+                if cells
+                    .iter()
+                    .any(|(k, &last)| inside(k) && self.any_in(last, &mut found))
+                {
                     return true;
                 }
                 continue;
@@ -96,7 +141,10 @@ impl Cover {
             for k in a[2]..=b[2] {
                 for j in a[1]..=b[1] {
                     for i in a[0]..=b[0] {
-                        if cells.get(&[i, j, k]).is_some_and(|ts| found(ts)) {
+                        if cells
+                            .get(&[i, j, k])
+                            .is_some_and(|&last| self.any_in(last, &mut found))
+                        {
                             return true;
                         }
                     }
@@ -117,10 +165,7 @@ impl Cover {
             cell.lo,
             cell.hi,
             |side| side,
-            |ts| {
-                ts.iter()
-                    .any(|&t| mesh.triangles[t as usize].iter().any(inside))
-            },
+            |t| mesh.triangles[t as usize].iter().any(inside),
         )
     }
 
@@ -142,17 +187,15 @@ impl Cover {
         // A triangle of a level (longest edge at most its side) within reach has its
         // centroid within the reach + its longest edge of p.
         let grow = |side: f64| factor * h.max(side) + side;
-        self.any_near(p, p, grow, |ts| {
-            ts.iter().any(|&t| {
-                let [a, b, c] = mesh.triangles[t as usize].map(|v| mesh.vertices[v as usize]);
-                let n = (b - a).cross(c - a).normalize_or_zero();
-                if n.dot(normal) <= cos {
-                    return false;
-                }
-                let edge = a.distance(b).max(b.distance(c)).max(c.distance(a));
-                let reach = factor * h.max(edge);
-                (closest_on_triangle(p, a, b, c) - p).length() < reach
-            })
+        self.any_near(p, p, grow, |t| {
+            let [a, b, c] = mesh.triangles[t as usize].map(|v| mesh.vertices[v as usize]);
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            if n.dot(normal) <= cos {
+                return false;
+            }
+            let edge = a.distance(b).max(b.distance(c)).max(c.distance(a));
+            let reach = factor * h.max(edge);
+            (closest_on_triangle(p, a, b, c) - p).length() < reach
         })
     }
 }

@@ -249,7 +249,7 @@ pub fn mesh_components(
         (lo, hi),
         march_settings,
         settings,
-        &Mesh::default(),
+        Mesh::default(),
         false,
         None,
     )
@@ -278,14 +278,15 @@ pub fn mesh_components_forked(
         bbox,
         march_settings,
         settings,
-        &Mesh::default(),
+        Mesh::default(),
         false,
         progress,
     )
 }
 
 /// [`mesh_components`] around a mesh made already (`existing`, the smooth pieces of a surface
-/// with creases): seeds it covers start nothing. The result's mesh begins with `existing`;
+/// with creases): seeds it covers start nothing. The result's mesh begins with `existing`
+/// (taken, not copied: it is the bulk of the result);
 /// its component count and seeds are those of the new components only. With `fork`, the
 /// marches run as [`mesh_components_forked`] says, and `progress` counts as it says there
 /// (`existing`'s triangles are not added: the caller counted them). A seed where f touches
@@ -300,7 +301,7 @@ pub fn mesh_components_beside(
     bbox: (DVec3, DVec3),
     march_settings: &MarchSettings,
     settings: &SearchSettings,
-    existing: &Mesh,
+    existing: Mesh,
     progress: Option<&Counts>,
 ) -> Result<Components, SearchError> {
     search_components(
@@ -329,7 +330,7 @@ fn search_components(
     (lo, hi): (DVec3, DVec3),
     march_settings: &MarchSettings,
     settings: &SearchSettings,
-    existing: &Mesh,
+    existing: Mesh,
     skip_touching: bool,
     progress: Option<&Counts>,
 ) -> Result<Components, SearchError> {
@@ -369,7 +370,7 @@ fn search_components(
         progress,
     };
     let Search { cover, out, .. } = &mut search;
-    cover.add(&mut out.mesh, existing);
+    cover.adopt(&mut out.mesh, existing);
     // First pass, as the octree yields its leaves: seeds away from the faces are marched at
     // once (a march past `max_triangles` ends the search there); the others wait for the
     // second pass. A kept leaf is walked again with smaller leaves where it may hide what its

@@ -572,6 +572,7 @@ fn mesh_creased_once(
     };
     // The search bounds f over its cells through the spine pruned there (the forms near a
     // cell, not the whole tape); its marches run on `fork`'s tapes, or on the spine's f.
+    let piece_triangles = pieces.triangles.len();
     let found = components::mesh_components_beside(
         &mut Whole(t.c),
         fork,
@@ -579,15 +580,10 @@ fn mesh_creased_once(
         bbox,
         march_settings,
         search,
-        &pieces,
+        pieces,
         progress,
     )?;
-    check_smooth(
-        t.c,
-        &found.mesh,
-        pieces.triangles.len(),
-        settings.tie * step,
-    )?;
+    check_smooth(t.c, &found.mesh, piece_triangles, settings.tie * step)?;
     out.max_chord_error = out.max_chord_error.max(found.max_chord_error);
     out.warnings
         .extend(found.warnings.iter().map(ToString::to_string));
@@ -596,7 +592,7 @@ fn mesh_creased_once(
     // The search's mesh begins with the pieces' (merged above: each position once, normals
     // summed from +0, sides sorted); merged again it would be the same bits, so only
     // components found beside them are merged in.
-    out.mesh = if found.mesh.triangles.len() == pieces.triangles.len() {
+    out.mesh = if found.mesh.triangles.len() == piece_triangles {
         found.mesh
     } else {
         merge(&[found.mesh])
@@ -642,13 +638,7 @@ fn mesh_creased_once(
     }
     if slides {
         let target = march_settings.quality_angle;
-        let held = slide::held(
-            &out.mesh,
-            pieces.triangles.len(),
-            &out.polygons,
-            bbox,
-            target,
-        );
+        let held = slide::held(&out.mesh, piece_triangles, &out.polygons, bbox, target);
         out.warnings.extend(held.map(|h| h.to_string()));
     }
     Ok(out)
