@@ -10,6 +10,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 use glam::DVec3;
 
 use super::ring::NodeId;
+use crate::values::floor;
 
 /// A small multiplicative hasher for cell keys (the std SipHash costs more than the lookup).
 #[derive(Default)]
@@ -53,14 +54,6 @@ pub struct SpatialHash {
 fn pack(x: i64, y: i64, z: i64) -> Cell {
     const MASK: u64 = (1 << 21) - 1;
     ((x as u64 & MASK) << 42) | ((y as u64 & MASK) << 21) | (z as u64 & MASK)
-}
-
-/// `x.floor() as i64` (saturating, NaN to 0) without the call to libm's `floor` that
-/// x86-64's baseline makes of it (`roundsd` is SSE4.1): truncate, then step down where that
-/// rounded up. Six a query.
-fn floor(x: f64) -> i64 {
-    let t = x as i64;
-    t.saturating_sub(i64::from(x < t as f64))
 }
 
 impl SpatialHash {
@@ -121,35 +114,6 @@ impl SpatialHash {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn floor_is_the_floor_cast() {
-        let mut values = vec![
-            0.0,
-            -0.0,
-            0.5,
-            -0.5,
-            1.0,
-            -1.0,
-            -1.0 - f64::EPSILON,
-            2.0f64.powi(52) + 0.5,
-            -(2.0f64.powi(52)) - 0.5,
-            2.0f64.powi(63),
-            -(2.0f64.powi(63)),
-            -(2.0f64.powi(63)) - 4096.0,
-            1e300,
-            -1e300,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NAN,
-            f64::MIN_POSITIVE,
-            -f64::MIN_POSITIVE,
-        ];
-        values.extend((0..2000).map(|i| (i as f64 - 1000.0) * 0.0137));
-        for x in values {
-            assert_eq!(floor(x), x.floor() as i64, "{x}");
-        }
-    }
 
     #[test]
     fn finds_every_node_within_a_cell_and_forgets_removed_ones() {

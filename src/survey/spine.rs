@@ -799,19 +799,34 @@ impl Creased {
 
     /// The spine to evaluate at p: pruned over p's cell when `localize`d.
     fn spine_at(&mut self, p: DVec3) -> Arc<Spine> {
+        let taken = self.take_spine_at(p);
+        let spine = taken.1.clone();
+        self.give_back(taken);
+        spine
+    }
+
+    /// `spine_at`, with p's cell, moved out of `last_local` where it is there (the point
+    /// queries' runs in one cell: a Newton solve, a star's points), to be handed back with
+    /// `give_back` (rather than a count taken and dropped at every point).
+    fn take_spine_at(&mut self, p: DVec3) -> (Option<[i64; 3]>, Arc<Spine>) {
         let Some(size) = self.local_size else {
-            return self.spine.clone();
+            return (None, self.spine.clone());
         };
-        let key = (p / size).floor().to_array().map(|c| c as i64);
-        // Point queries come in runs in one cell (a Newton solve, a star's points).
-        if let Some((last, s)) = &self.last_local
-            && *last == key
-        {
-            return s.clone();
+        let key = (p / size).to_array().map(crate::values::floor);
+        if let Some((last, s)) = self.last_local.take() {
+            if last == key {
+                return (Some(key), s);
+            }
+            self.last_local = Some((last, s));
         }
-        let s = self.local_spine(0, key, size);
-        self.last_local = Some((key, s.clone()));
-        s
+        (Some(key), self.local_spine(0, key, size))
+    }
+
+    /// Keeps the spine `take_spine_at` gave as the last cell's.
+    fn give_back(&mut self, (key, spine): (Option<[i64; 3]>, Arc<Spine>)) {
+        if let Some(key) = key {
+            self.last_local = Some((key, spine));
+        }
     }
 
     /// The spine pruned over cell `key` of side `size`·2^level (and a margin, so that a
@@ -1056,9 +1071,13 @@ impl Creased {
 
     /// Value and gradient of f at p, through the spine.
     pub fn whole(&mut self, p: DVec3) -> ValueGrad {
-        let spine = self.spine_at(p);
-        self.branches_of(&spine, p);
-        spine.value_gradient_in(&self.branch_values, &mut self.term_scratch)
+        let taken = self.take_spine_at(p);
+        self.branches_of(&taken.1, p);
+        let out = taken
+            .1
+            .value_gradient_in(&self.branch_values, &mut self.term_scratch);
+        self.give_back(taken);
+        out
     }
 
     /// The forms chosen at p, with every choice within `eps` (function units) of the one

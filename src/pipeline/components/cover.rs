@@ -49,7 +49,7 @@ impl Cover {
 
     fn key(side: f64, p: DVec3) -> [i64; 3] {
         // Saturating float-to-int casts: a point far out stays in an edge cell.
-        (p / side).floor().to_array().map(|c| c as i64)
+        (p / side).to_array().map(crate::values::floor)
     }
 
     /// Appends `part` to `mesh` and hashes its triangles.
