@@ -175,8 +175,10 @@ pub(super) fn slide(
                 let Some(normals) = normals_at(c, &traced[k], q, old_normal, &old_sides) else {
                     continue;
                 };
-                let s = score(mesh, tris, v, q, normals.normal, &normals.sides);
-                if s.valid(&now) && better(&now, &s, None) {
+                if let Some(s) =
+                    score_if_valid(mesh, tris, v, q, normals.normal, &normals.sides, &now)
+                    && better(&now, &s, None)
+                {
                     candidates.push((q, normals, s));
                 }
             }
@@ -252,7 +254,7 @@ fn near_creases(
 /// One round of smoothing of the free vertices `near` the creases on the joined mesh: each
 /// towards the centroid of its ring, put onto the surface by Newton on f (it stays on its
 /// own face: crossing a crease polygon would turn a triangle over), kept by the rules of
-/// the slide (`Score::valid`, `better`, `within_chord`). Returns the moves.
+/// the slide (`turn_kept`, `better`, `within_chord`). Returns the moves.
 fn smooth_near(
     c: &mut Creased,
     mesh: &mut Mesh,
@@ -306,8 +308,9 @@ fn smooth_near(
             {
                 continue;
             }
-            let s = score(mesh, tris, v, q, normal, &[]);
-            if s.valid(&now) && better(&now, &s, None) {
+            if let Some(s) = score_if_valid(mesh, tris, v, q, normal, &[], &now)
+                && better(&now, &s, None)
+            {
                 candidates.push((q, normal, s));
             }
         }
@@ -414,19 +417,15 @@ struct Score {
     ratios: f64,
     /// Per triangle: the cosine between its normal and the nearest of the centre's normal
     /// and piece normals; NaN where a triangle is degenerate or faces against its corners'
-    /// normals.
+    /// normals. Empty for a place tried (`score_if_valid`).
     turns: Vec<f64>,
 }
 
-impl Score {
-    /// Every triangle faces its corners' normals and turns no further from the nearest
-    /// normal at the centre than it did or than `TURN_COS`.
-    fn valid(&self, before: &Score) -> bool {
-        self.turns
-            .iter()
-            .zip(&before.turns)
-            .all(|(&now, &then)| now >= then.min(TURN_COS))
-    }
+/// Whether a triangle of a star still faces its corners' normals and turns no further from
+/// the nearest normal at the centre than it did (`then`, its turn before the move) or than
+/// `TURN_COS`: a move is valid when this holds for every triangle of its star.
+fn turn_kept(then: f64, turn: f64) -> bool {
+    turn >= then.min(TURN_COS)
 }
 
 /// Whether `s` is better than `now` by the rule of the module documentation, and better
@@ -451,12 +450,53 @@ fn better(now: &Score, s: &Score, best: Option<&Score>) -> bool {
 /// The star of v (triangles `tris`) with v at q, its normal `normal` and piece normals
 /// `sides` there (none for a free vertex, or a seam vertex without sides).
 fn score(mesh: &Mesh, tris: &[u32], v: u32, q: DVec3, normal: DVec3, sides: &[DVec3]) -> Score {
-    let mut out = Score {
-        min_sine: f64::INFINITY,
-        ratios: 0.0,
-        turns: Vec::with_capacity(tris.len()),
-    };
-    for &t in tris {
+    let mut turns = Vec::with_capacity(tris.len());
+    let (min_sine, ratios) = measure(mesh, tris, v, q, normal, sides, |_, turn| {
+        turns.push(turn);
+        true
+    })
+    .expect("every turn is taken");
+    Score {
+        min_sine,
+        ratios,
+        turns,
+    }
+}
+
+/// `score` of a candidate place where it is valid against `now` (`turn_kept`), without
+/// its turns (a place tried is scored once and never compared as `now`).
+fn score_if_valid(
+    mesh: &Mesh,
+    tris: &[u32],
+    v: u32,
+    q: DVec3,
+    normal: DVec3,
+    sides: &[DVec3],
+    now: &Score,
+) -> Option<Score> {
+    let (min_sine, ratios) = measure(mesh, tris, v, q, normal, sides, |k, turn| {
+        turn_kept(now.turns[k], turn)
+    })?;
+    Some(Score {
+        min_sine,
+        ratios,
+        turns: Vec::new(),
+    })
+}
+
+/// The smallest sine and the sum of radius ratios of the star of v with v at q (as
+/// `score`), each triangle's turn handed to `take` in order; None as soon as it refuses one.
+fn measure(
+    mesh: &Mesh,
+    tris: &[u32],
+    v: u32,
+    q: DVec3,
+    normal: DVec3,
+    sides: &[DVec3],
+    mut take: impl FnMut(usize, f64) -> bool,
+) -> Option<(f64, f64)> {
+    let (mut min_sine, mut ratios) = (f64::INFINITY, 0.0);
+    for (k, &t) in tris.iter().enumerate() {
         let tri = mesh.triangles[t as usize];
         let at = |k: u32| if k == v { q } else { mesh.vertices[k as usize] };
         let [a, b, c] = tri.map(at);
@@ -478,11 +518,13 @@ fn score(mesh: &Mesh, tris: &[u32], v: u32, q: DVec3, normal: DVec3, sides: &[DV
                 .fold(u.dot(normal), f64::max),
             _ => f64::NAN,
         };
-        out.turns.push(turn);
-        out.min_sine = out.min_sine.min(min_sine(a, b, c));
-        out.ratios += radius_ratio(a, b, c);
+        if !take(k, turn) {
+            return None;
+        }
+        min_sine = min_sine.min(min_sine_of(a, b, c));
+        ratios += radius_ratio(a, b, c);
     }
-    out
+    Some((min_sine, ratios))
 }
 
 /// Of `candidates` (places q for v in the order tried, each with what moves with it, each
@@ -574,7 +616,7 @@ pub(super) fn held(
     let mut out: Option<Held> = None;
     for tri in &mesh.triangles[..pieces.min(mesh.triangles.len())] {
         let [a, b, c] = tri.map(|k| mesh.vertices[k as usize]);
-        let sine = min_sine(a, b, c);
+        let sine = min_sine_of(a, b, c);
         if sine >= sin_target || ![a, b, c].into_iter().any(fixed) {
             continue;
         }
@@ -590,7 +632,7 @@ pub(super) fn held(
 }
 
 /// Sine of the smallest angle of triangle (a, b, c), 0 where it is degenerate.
-fn min_sine(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+fn min_sine_of(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let (x, y, z) = (a.distance(b), b.distance(c), c.distance(a));
     let longer = x * y * z / x.min(y).min(z);
     let area2 = (b - a).cross(c - a).length();
@@ -630,9 +672,15 @@ mod tests {
                 .collect();
             let fails: Vec<bool> = (0..n).map(|_| unit() < 0.4).collect();
             let passes = |q: DVec3| !fails[q.x as usize];
+            let valid = |s: &Score| {
+                s.turns
+                    .iter()
+                    .zip(&now.turns)
+                    .all(|(&turn, &then)| turn_kept(then, turn))
+            };
             let mut greedy: Option<usize> = None;
             for (q, k, s) in &tried {
-                if !s.valid(&now) || !better(&now, s, greedy.map(|g| &tried[g].2)) {
+                if !valid(s) || !better(&now, s, greedy.map(|g| &tried[g].2)) {
                     continue;
                 }
                 asked_greedy += 1;
@@ -642,7 +690,7 @@ mod tests {
             }
             let gaining: Vec<(DVec3, usize, Score)> = tried
                 .into_iter()
-                .filter(|(_, _, s)| s.valid(&now) && better(&now, s, None))
+                .filter(|(_, _, s)| valid(s) && better(&now, s, None))
                 .collect();
             let ranked = best_passing(&now, gaining, |q| {
                 asked_ranked += 1;
