@@ -1219,6 +1219,8 @@ fn bound_on(
 pub struct Detached {
     form: Form,
     branches: Vec<Box<dyn Surface>>,
+    /// A batch's sum and one branch's values (`value_gradient_batch`), kept between batches.
+    batch: (Vec<ValueGrad>, Vec<ValueGrad>),
 }
 
 impl Detached {
@@ -1226,7 +1228,11 @@ impl Detached {
     /// missing.
     pub fn new(form: Form, branches: Vec<Box<dyn Surface>>) -> Option<Detached> {
         let known = form.branches().all(|k| k < branches.len());
-        known.then_some(Detached { form, branches })
+        known.then_some(Detached {
+            form,
+            branches,
+            batch: (Vec::new(), Vec::new()),
+        })
     }
 }
 
@@ -1234,6 +1240,33 @@ impl Surface for Detached {
     fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
         let branches = &mut self.branches;
         self.form.combine(|k| branches[k].value_gradient(p))
+    }
+
+    /// Each branch over the batch, summed in the form's order as `combine` sums them: the
+    /// same bits as a point at a time, where every branch answers in batches.
+    fn value_gradient_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) -> bool {
+        let n = points.len().min(out.len());
+        let (sum, branch) = &mut self.batch;
+        sum.clear();
+        sum.resize(
+            n,
+            ValueGrad {
+                value: self.form.constant,
+                gradient: DVec3::ZERO,
+            },
+        );
+        branch.resize(n, ValueGrad::default());
+        for &(k, c) in &self.form.terms {
+            if !self.branches[k].value_gradient_batch(&points[..n], branch) {
+                return false;
+            }
+            for (s, b) in sum.iter_mut().zip(branch.iter()) {
+                s.value += c * b.value;
+                s.gradient += c * b.gradient;
+            }
+        }
+        out[..n].copy_from_slice(sum);
+        true
     }
 
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
@@ -1454,6 +1487,67 @@ mod tests {
         assert!(!creased.gradient_may_face(face.0, face.1, [u, w]));
         // The opposite direction is an extreme too (the smallest d·p): the same answers.
         assert!(creased.gradient_may_face(corner.0, corner.1, [-u, w]));
+    }
+
+    /// A plane that answers in batches, or refuses them.
+    struct Batched(Plane, bool);
+
+    impl Surface for Batched {
+        fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+            self.0.value_gradient(p)
+        }
+
+        fn value_gradient_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) -> bool {
+            if self.1 {
+                for (o, &p) in out.iter_mut().zip(points) {
+                    *o = self.0.value_gradient(p);
+                }
+            }
+            self.1
+        }
+    }
+
+    /// A detached form's batch is its point-by-point value, bit for bit (the branches summed
+    /// in the same order), and nothing is written where a branch refuses batches.
+    #[test]
+    fn a_detached_batch_is_its_points_bit_for_bit() {
+        let mut next = crate::testing::uniform(0x51ed_2701_b4c3_9e11);
+        for refuse in [false, true] {
+            let branches: Vec<Box<dyn Surface>> = (0..4)
+                .map(|k| {
+                    let d = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+                    Box::new(Batched(Plane(d, next() - 0.5), !(refuse && k == 2)))
+                        as Box<dyn Surface>
+                })
+                .collect();
+            let form = Form {
+                terms: vec![(0, 0.3), (2, -1.7), (3, 1e-3)],
+                constant: 0.1,
+            };
+            let mut detached = Detached::new(form, branches).unwrap();
+            let points: Vec<DVec3> = (0..37)
+                .map(|_| DVec3::new(next(), next(), next()) * 10.0 - 5.0)
+                .collect();
+            let unset = ValueGrad {
+                value: 7.0,
+                gradient: DVec3::splat(7.0),
+            };
+            let mut out = vec![unset; points.len()];
+            let batched = detached.value_gradient_batch(&points, &mut out);
+            assert_eq!(batched, !refuse);
+            for (o, &p) in out.iter().zip(&points) {
+                let want = if refuse {
+                    unset
+                } else {
+                    detached.value_gradient(p)
+                };
+                assert_eq!(o.value.to_bits(), want.value.to_bits());
+                assert_eq!(
+                    o.gradient.to_array().map(f64::to_bits),
+                    want.gradient.to_array().map(f64::to_bits)
+                );
+            }
+        }
     }
 
     /// A localized spine's pruning from the cells above (`base_for`, `spine_at`) against the
