@@ -12,7 +12,7 @@
 use glam::DVec3;
 
 use crate::solve::SurfacePoint;
-use crate::surface::Surface;
+use crate::surface::{Surface, ValueGrad};
 
 /// Settings of the sizing field. Lengths are relative to the step; `Default` gives the values
 /// the tests were run with (docs/marcher.md has the evidence).
@@ -316,47 +316,81 @@ impl Sizing {
         1.0 / kappa
     }
 
-    /// The distance to the nearest other sheet along ±n (at most the reach).
+    /// The distance to the nearest other sheet along ±n (at most the reach). The two rays'
+    /// samples are asked in pairs where the surface answers in batches (one call for two
+    /// points); else one ray after the other, in the order the surface's answers may depend
+    /// on. The same samples and values either way.
     fn thickness(&self, surface: &mut dyn Surface, sp: &SurfacePoint) -> f64 {
-        self.other_sheet(surface, sp.point, sp.normal, 1.0)
-            .min(self.other_sheet(surface, sp.point, -sp.normal, -1.0))
+        let mut rays = [
+            Probe::new(self, sp.normal, 1.0),
+            Probe::new(self, -sp.normal, -1.0),
+        ];
+        let p = sp.point;
+        let mut pair = [ValueGrad::default(); 2];
+        while rays.iter().all(|r| r.found.is_none()) {
+            let points = rays.clone().map(|r| p + r.t * r.dir);
+            if !surface.value_gradient_batch(&points, &mut pair) {
+                break;
+            }
+            for (ray, vg) in rays.iter_mut().zip(pair) {
+                self.probe(surface, p, ray, vg);
+            }
+        }
+        let [plus, minus] = rays.map(|mut ray| self.follow(surface, p, &mut ray));
+        plus.min(minus)
     }
 
-    /// The distance along `dir` from `p` (on the surface, `dir` = ±n, `side` the sign of f
-    /// just off p that way) to where f first takes the other sign, or the reach. Samples
-    /// advance by the linear distance estimate, so a sheet passing close to the ray is
-    /// sampled densely and one far from it is skipped quickly.
+    /// The distance along `dir` from `p` to the other sheet, as `probe` finds it (one ray).
+    #[cfg(test)]
     fn other_sheet(&self, surface: &mut dyn Surface, p: DVec3, dir: DVec3, side: f64) -> f64 {
+        self.follow(surface, p, &mut Probe::new(self, dir, side))
+    }
+
+    /// The ray sampled a point at a time from where it is until its distance is found.
+    fn follow(&self, surface: &mut dyn Surface, p: DVec3, ray: &mut Probe) -> f64 {
+        loop {
+            if let Some(found) = ray.found {
+                return found;
+            }
+            let vg = surface.value_gradient(p + ray.t * ray.dir);
+            self.probe(surface, p, ray, vg);
+        }
+    }
+
+    /// One sample `vg` of the ray at its `t`: the distance along `dir` from `p` (on the
+    /// surface, `dir` = ±n, `side` the sign of f just off p that way) to where f first takes
+    /// the other sign, or the reach, once known. Samples advance by the linear distance
+    /// estimate, so a sheet passing close to the ray is sampled densely and one far from it
+    /// is skipped quickly.
+    fn probe(&self, surface: &mut dyn Surface, p: DVec3, ray: &mut Probe, vg: ValueGrad) {
         let reach = self.s.probe_reach * self.step;
         let (lo, hi) = (self.s.probe_min * reach, self.s.probe_max * reach);
-        let mut t_prev = 0.0;
-        let mut t = hi;
-        let mut dense = false;
-        while t <= reach {
-            let vg = surface.value_gradient(p + t * dir);
-            if !vg.value.is_finite() {
-                return reach;
-            }
-            if vg.value * side <= 0.0 {
-                return self.crossing(surface, p, dir, side, t_prev, t);
-            }
-            let g = vg.gradient.length();
-            let estimate = if g > 0.0 && g.is_finite() {
-                vg.value.abs() / g
-            } else {
-                hi
-            };
-            if !dense && t_prev == 0.0 && estimate < 0.7 * t {
-                // Something is nearer to the first sample than p is: a sheet the ray may
-                // have entered and left again. Walk it densely from the start.
-                dense = true;
-                t = lo;
-                continue;
-            }
-            t_prev = t;
-            t += (self.s.probe_advance * estimate).clamp(lo, hi);
+        if !vg.value.is_finite() {
+            ray.found = Some(reach);
+            return;
         }
-        reach
+        if vg.value * ray.side <= 0.0 {
+            ray.found = Some(self.crossing(surface, p, ray.dir, ray.side, ray.t_prev, ray.t));
+            return;
+        }
+        let g = vg.gradient.length();
+        let estimate = if g > 0.0 && g.is_finite() {
+            vg.value.abs() / g
+        } else {
+            hi
+        };
+        if !ray.dense && ray.t_prev == 0.0 && estimate < 0.7 * ray.t {
+            // Something is nearer to the first sample than p is: a sheet the ray may have
+            // entered and left again. Walk it densely from the start.
+            ray.dense = true;
+            ray.t = lo;
+        } else {
+            ray.t_prev = ray.t;
+            ray.t += (self.s.probe_advance * estimate).clamp(lo, hi);
+        }
+        if !(ray.t <= reach) {
+            ray.found = Some(reach);
+        }
     }
 
     /// Bisection of the first sign change on (a, b] of the ray; a few halvings are enough for
@@ -385,6 +419,35 @@ impl Sizing {
     /// `parent` at distance `distance`.
     pub fn graded(&self, own: f64, parent: f64, distance: f64) -> f64 {
         own.min(parent + self.s.grading * distance)
+    }
+}
+
+/// A ray of `Sizing::thickness` along `dir` (f's sign just off the point that way is
+/// `side`): the last sample's place and the next one's, whether it walks densely, and the
+/// distance to the other sheet once found.
+#[derive(Clone, Copy)]
+struct Probe {
+    dir: DVec3,
+    side: f64,
+    t_prev: f64,
+    t: f64,
+    dense: bool,
+    found: Option<f64>,
+}
+
+impl Probe {
+    fn new(sizing: &Sizing, dir: DVec3, side: f64) -> Probe {
+        let reach = sizing.s.probe_reach * sizing.step;
+        let t = sizing.s.probe_max * reach;
+        Probe {
+            dir,
+            side,
+            t_prev: 0.0,
+            t,
+            // A reach below the first sample's place: nothing to sample.
+            found: (!(t <= reach)).then_some(reach),
+            dense: false,
+        }
     }
 }
 
@@ -652,6 +715,55 @@ mod tests {
         assert_eq!(sizing.other_sheet(&mut s, p, DVec3::Z, 1.0), 5.0);
         let size = sizing.size(&mut s, &at(p, DVec3::Z), None);
         assert!(size.h <= 0.4 * 0.1 * 1.1 && !size.floored, "{size:?}");
+    }
+
+    /// A surface answering in batches (a point at a time underneath), counting its points.
+    struct Batched<S>(S, usize);
+
+    impl<S: Surface> Surface for Batched<S> {
+        fn value_gradient(&mut self, p: DVec3) -> ValueGrad {
+            self.1 += 1;
+            self.0.value_gradient(p)
+        }
+
+        fn value_gradient_batch(&mut self, points: &[DVec3], out: &mut [ValueGrad]) -> bool {
+            for (o, &p) in out.iter_mut().zip(points) {
+                *o = self.value_gradient(p);
+            }
+            true
+        }
+    }
+
+    /// The thickness with the two rays sampled in pairs is the thickness one ray after the
+    /// other, bit for bit and from as many samples: two sheets at random gaps (and a ray
+    /// grazing a sphere), from random points and normals.
+    #[test]
+    fn rays_in_pairs_find_what_rays_one_by_one_find() {
+        let mut unit = crate::testing::uniform(0x7f4a_7c15_9e37_79b9);
+        let sizing = Sizing::new(0.1, 0.01, SizingSettings::default());
+        for _ in 0..300 {
+            let (gap, r) = (0.6 * unit(), 0.05 + 0.3 * unit());
+            let c = DVec3::new(unit(), unit(), unit()) - 0.5;
+            let f = move |p: DVec3| ValueGrad {
+                value: (p.z * p.z - gap * gap) * ((p - c).length_squared() - r * r),
+                gradient: DVec3::new(0.0, 0.0, 2.0 * p.z) * ((p - c).length_squared() - r * r)
+                    + 2.0 * (p - c) * (p.z * p.z - gap * gap),
+            };
+            let p = DVec3::new(unit() - 0.5, unit() - 0.5, gap);
+            let n = (DVec3::Z + 0.3 * (DVec3::new(unit(), unit(), unit()) - 0.5)).normalize();
+            let (mut one, mut paired) =
+                (Batched(NativeSurface(f), 0), Batched(NativeSurface(f), 0));
+            let sequential = sizing
+                .other_sheet(&mut one, p, n, 1.0)
+                .min(sizing.other_sheet(&mut one, p, -n, -1.0));
+            let both = sizing.thickness(&mut paired, &at(p, n));
+            assert_eq!(
+                both.to_bits(),
+                sequential.to_bits(),
+                "{p} {n} {gap} {c} {r}"
+            );
+            assert_eq!(paired.1, one.1);
+        }
     }
 
     /// The kd-tree's bound is the smallest `size + grading·distance` over all caps, as a scan
