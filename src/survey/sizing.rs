@@ -295,12 +295,13 @@ impl Sizing {
     /// unit normal along t1 and t2.
     fn curvature_radius(&self, surface: &mut dyn Surface, sp: &SurfacePoint) -> f64 {
         let e = self.s.curvature_probe * self.step;
-        let unit = |surface: &mut dyn Surface, q: DVec3| {
-            let g = surface.value_gradient(q).gradient;
-            g.normalize_or_zero()
-        };
-        let n1 = unit(surface, sp.point + e * sp.t1);
-        let n2 = unit(surface, sp.point + e * sp.t2);
+        // The two probes in one call where the surface answers in batches.
+        let probes = [sp.point + e * sp.t1, sp.point + e * sp.t2];
+        let mut grads = [ValueGrad::default(); 2];
+        if !surface.value_gradient_batch(&probes, &mut grads) {
+            grads = probes.map(|q| surface.value_gradient(q));
+        }
+        let [n1, n2] = grads.map(|g| g.gradient.normalize_or_zero());
         if n1 == DVec3::ZERO || n2 == DVec3::ZERO || !(n1.is_finite() && n2.is_finite()) {
             // A singular neighbourhood: nothing to learn here, the verification judges.
             return f64::INFINITY;
