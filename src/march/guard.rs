@@ -125,19 +125,22 @@ impl Guard {
         let origin = *self
             .origin
             .get_or_insert(points.first().copied().unwrap_or(at));
+        let mut farthest = (self.farthest, self.farthest.distance_squared(origin));
         for t in triangles.get(self.seen..).unwrap_or_default() {
             let [Some(&a), Some(&b), Some(&c)] = t.map(|i| points.get(i as usize)) else {
                 continue;
             };
             for p in [a, b, c] {
-                if p.distance_squared(origin) > self.farthest.distance_squared(origin) {
-                    self.farthest = p;
+                let d = p.distance_squared(origin);
+                if d > farthest.1 {
+                    farthest = (p, d);
                 }
             }
             self.lo = self.lo.min(a).min(b).min(c);
             self.hi = self.hi.max(a).max(b).max(c);
             self.area += 0.5 * (b - a).cross(c - a).length();
         }
+        self.farthest = farthest.0;
         self.seen = triangles.len();
         let count = triangles.len() as u64;
         if count > self.limit {
