@@ -707,8 +707,9 @@ pub struct Creased {
     /// so that a cell's pruning bounds only the few branches its parent left.
     local_size: Option<f64>,
     local: HashMap<(u32, [i64; 3]), Arc<Spine>, BitsHash>,
-    /// The cell of the last point query and its pruned spine.
-    last_local: Option<([i64; 3], Arc<Spine>)>,
+    /// The cells of the last two point queries with their pruned spines, the last first
+    /// (a star's points, a chord's, alternate across a cell's side).
+    last_local: [Option<([i64; 3], Arc<Spine>)>; 2],
     /// The buffers of a point query (`whole`, `active`): the branches' values
     /// (`branches_of`) and the terms', reused rather than allocated for each of the crease
     /// net's many points.
@@ -780,7 +781,7 @@ impl Creased {
             ],
             local_size: None,
             local: HashMap::default(),
-            last_local: None,
+            last_local: [None, None],
             branch_values: Vec::new(),
             term_scratch: Vec::new(),
         })
@@ -793,7 +794,7 @@ impl Creased {
         if !self.enumerated && size.is_finite() && size > 0.0 {
             self.local_size = Some(size);
             self.local.clear();
-            self.last_local = None;
+            self.last_local = [None, None];
         }
     }
 
@@ -813,19 +814,24 @@ impl Creased {
             return (None, self.spine.clone());
         };
         let key = (p / size).to_array().map(crate::values::floor);
-        if let Some((last, s)) = self.last_local.take() {
-            if last == key {
+        for slot in &mut self.last_local {
+            if slot.as_ref().is_some_and(|(last, _)| *last == key)
+                && let Some((_, s)) = slot.take()
+            {
                 return (Some(key), s);
             }
-            self.last_local = Some((last, s));
         }
         (Some(key), self.local_spine(0, key, size))
     }
 
-    /// Keeps the spine `take_spine_at` gave as the last cell's.
+    /// Keeps the spine `take_spine_at` gave as the last cell's, the one before it second.
     fn give_back(&mut self, (key, spine): (Option<[i64; 3]>, Arc<Spine>)) {
         if let Some(key) = key {
-            self.last_local = Some((key, spine));
+            let [last, before] = &mut self.last_local;
+            if last.is_some() {
+                *before = last.take();
+            }
+            *last = Some((key, spine));
         }
     }
 
