@@ -329,7 +329,7 @@ impl Sizing {
         let p = sp.point;
         let mut pair = [ValueGrad::default(); 2];
         while rays.iter().all(|r| r.found.is_none()) {
-            let points = rays.clone().map(|r| p + r.t * r.dir);
+            let points = rays.map(|r| p + r.t * r.dir);
             if !surface.value_gradient_batch(&points, &mut pair) {
                 break;
             }
@@ -389,9 +389,11 @@ impl Sizing {
             ray.t_prev = ray.t;
             ray.t += (self.s.probe_advance * estimate).clamp(lo, hi);
         }
-        if !(ray.t <= reach) {
-            ray.found = Some(reach);
+        // Past the reach (or a NaN place): nothing there.
+        if ray.t <= reach {
+            return;
         }
+        ray.found = Some(reach);
     }
 
     /// Bisection of the first sign change on (a, b] of the ray; a few halvings are enough for
@@ -446,7 +448,7 @@ impl Probe {
             t_prev: 0.0,
             t,
             // A reach below the first sample's place: nothing to sample.
-            found: (!(t <= reach)).then_some(reach),
+            found: if t <= reach { None } else { Some(reach) },
             dense: false,
         }
     }
