@@ -144,7 +144,9 @@ pub(super) fn slide(
                 mesh.sides[sides.clone()].iter().map(|s| s.normal).collect();
             let old_normal = mesh.normals[v as usize];
             let tris = &star[v as usize];
-            let now = score(mesh, tris, v, p, old_normal, &old_sides);
+            let Some(now) = score(mesh, tris, v, p, old_normal, &old_sides, None) else {
+                continue;
+            };
             let mut candidates: Vec<(DVec3, Normals, Score)> = Vec::new();
             for t in TRIES {
                 let guess = p + t * reach * tangent;
@@ -175,8 +177,7 @@ pub(super) fn slide(
                 let Some(normals) = normals_at(c, &traced[k], q, old_normal, &old_sides) else {
                     continue;
                 };
-                if let Some(s) =
-                    score_if_valid(mesh, tris, v, q, normals.normal, &normals.sides, &now)
+                if let Some(s) = score(mesh, tris, v, q, normals.normal, &normals.sides, Some(&now))
                     && better(&now, &s, None)
                 {
                     candidates.push((q, normals, s));
@@ -278,7 +279,9 @@ fn smooth_near(
         // Each ring vertex appears in two triangles of a closed fan: the mean is the ring's.
         let centroid = ring.iter().sum::<DVec3>() / ring.len() as f64;
         let old_normal = mesh.normals[v as usize];
-        let now = score(mesh, tris, v, p, old_normal, &[]);
+        let Some(now) = score(mesh, tris, v, p, old_normal, &[], None) else {
+            continue;
+        };
         let mut candidates: Vec<(DVec3, DVec3, Score)> = Vec::new();
         // Towards the centroid; and where the star holds an angle below `KEEP_ANGLE`, also
         // around the vertex (`AROUND`): a free corner between a crease corner and the
@@ -308,7 +311,7 @@ fn smooth_near(
             {
                 continue;
             }
-            if let Some(s) = score_if_valid(mesh, tris, v, q, normal, &[], &now)
+            if let Some(s) = score(mesh, tris, v, q, normal, &[], Some(&now))
                 && better(&now, &s, None)
             {
                 candidates.push((q, normal, s));
@@ -417,7 +420,7 @@ struct Score {
     ratios: f64,
     /// Per triangle: the cosine between its normal and the nearest of the centre's normal
     /// and piece normals; NaN where a triangle is degenerate or faces against its corners'
-    /// normals. Empty for a place tried (`score_if_valid`).
+    /// normals. Empty for a place tried (`score` against the star as it is).
     turns: Vec<f64>,
 }
 
@@ -448,53 +451,19 @@ fn better(now: &Score, s: &Score, best: Option<&Score>) -> bool {
 }
 
 /// The star of v (triangles `tris`) with v at q, its normal `normal` and piece normals
-/// `sides` there (none for a free vertex, or a seam vertex without sides).
-fn score(mesh: &Mesh, tris: &[u32], v: u32, q: DVec3, normal: DVec3, sides: &[DVec3]) -> Score {
-    let mut turns = Vec::with_capacity(tris.len());
-    let (min_sine, ratios) = measure(mesh, tris, v, q, normal, sides, |_, turn| {
-        turns.push(turn);
-        true
-    })
-    .expect("every turn is taken");
-    Score {
-        min_sine,
-        ratios,
-        turns,
-    }
-}
-
-/// `score` of a candidate place where it is valid against `now` (`turn_kept`), without
-/// its turns (a place tried is scored once and never compared as `now`).
-fn score_if_valid(
+/// `sides` there (none for a free vertex, or a seam vertex without sides). A place tried is
+/// scored `against` the star as it is (`now`): None as soon as a triangle's turn is not kept
+/// (`turn_kept`), and its turns are not kept (it is never compared as `now`).
+fn score(
     mesh: &Mesh,
     tris: &[u32],
     v: u32,
     q: DVec3,
     normal: DVec3,
     sides: &[DVec3],
-    now: &Score,
+    against: Option<&Score>,
 ) -> Option<Score> {
-    let (min_sine, ratios) = measure(mesh, tris, v, q, normal, sides, |k, turn| {
-        turn_kept(now.turns[k], turn)
-    })?;
-    Some(Score {
-        min_sine,
-        ratios,
-        turns: Vec::new(),
-    })
-}
-
-/// The smallest sine and the sum of radius ratios of the star of v with v at q (as
-/// `score`), each triangle's turn handed to `take` in order; None as soon as it refuses one.
-fn measure(
-    mesh: &Mesh,
-    tris: &[u32],
-    v: u32,
-    q: DVec3,
-    normal: DVec3,
-    sides: &[DVec3],
-    mut take: impl FnMut(usize, f64) -> bool,
-) -> Option<(f64, f64)> {
+    let mut turns = Vec::with_capacity(if against.is_none() { tris.len() } else { 0 });
     let (mut min_sine, mut ratios) = (f64::INFINITY, 0.0);
     for (k, &t) in tris.iter().enumerate() {
         let tri = mesh.triangles[t as usize];
@@ -518,13 +487,19 @@ fn measure(
                 .fold(u.dot(normal), f64::max),
             _ => f64::NAN,
         };
-        if !take(k, turn) {
-            return None;
+        match against {
+            Some(now) if !turn_kept(now.turns[k], turn) => return None,
+            Some(_) => {}
+            None => turns.push(turn),
         }
         min_sine = min_sine.min(min_sine_of(a, b, c));
         ratios += radius_ratio(a, b, c);
     }
-    Some((min_sine, ratios))
+    Some(Score {
+        min_sine,
+        ratios,
+        turns,
+    })
 }
 
 /// Of `candidates` (places q for v in the order tried, each with what moves with it, each
