@@ -150,7 +150,7 @@ pub enum Engine {
 #[derive(Debug)]
 enum Native {
     NotTried,
-    Ready(Box<native::NativeTape>),
+    Ready(std::rc::Rc<native::NativeTape>),
     Unavailable(native::NativeError),
 }
 
@@ -340,8 +340,8 @@ impl Vm {
             return None;
         }
         if let Native::NotTried = self.native {
-            self.native = match native::NativeTape::new(&self.tape) {
-                Ok(code) => Native::Ready(Box::new(code)),
+            self.native = match native::NativeTape::shared(&self.tape) {
+                Ok(code) => Native::Ready(code),
                 Err(e) => Native::Unavailable(e),
             };
         }

@@ -17,8 +17,14 @@
 //! sixteen call backs a point. So do the gradients of `min max abs sqrt recip`, whose NaN
 //! cases send the pair to the second copy as the unguarded terms' do. Tapes with `dist` children, or without three inputs, stay on
 //! the VM, as does any host Cranelift cannot compile for.
+//!
+//! A thread compiles a tape once while some VM holds its code (`NativeTape::shared`): the
+//! fresh oracles of one surface forked for each march (the slabs, the smooth pieces of a
+//! creased surface, the survey, the report) would otherwise each compile the same tape again.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
+use std::rc::{Rc, Weak};
 
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::types::{F64X2, I8, I8X16, I32, I64X2};
@@ -33,7 +39,7 @@ use cranelift_module::{FuncId, Linkage, Module, ModuleError};
 use glam::DVec3;
 
 use super::ops::{self, Grad};
-use crate::compile::tape::{Arity, Op, Tape};
+use crate::compile::tape::{Arity, Instr, Op, Reg, Tape};
 use crate::values::ValueGrad;
 
 /// Why a tape has no native code (the VM evaluates it instead).
@@ -104,7 +110,53 @@ const _: () = {
     assert!(std::mem::size_of::<DVec3>() == 24);
 };
 
+/// What the code compiled from a tape depends on: its shape, instructions and outputs, and
+/// its constants by their bits (the input names do not matter).
+#[derive(PartialEq, Eq, Hash)]
+struct TapeKey {
+    inputs: usize,
+    registers: usize,
+    children: usize,
+    constants: Vec<u64>,
+    instrs: Vec<Instr>,
+    outputs: Vec<Reg>,
+}
+
+impl TapeKey {
+    fn of(tape: &Tape) -> TapeKey {
+        TapeKey {
+            inputs: tape.inputs(),
+            registers: tape.registers(),
+            children: tape.children(),
+            constants: tape.constants().iter().map(|c| c.to_bits()).collect(),
+            instrs: tape.instrs().to_vec(),
+            outputs: tape.outputs().to_vec(),
+        }
+    }
+}
+
+thread_local! {
+    /// The code this thread compiled, by tape, while a VM still holds it.
+    static COMPILED: RefCell<HashMap<TapeKey, Weak<NativeTape>>> = RefCell::new(HashMap::new());
+}
+
 impl NativeTape {
+    /// The code of `tape`: the copy this thread compiled of the same tape while a VM still
+    /// holds it (the same code, so the same bits), else compiled now (about a millisecond
+    /// for a small tape).
+    pub fn shared(tape: &Tape) -> Result<Rc<NativeTape>, NativeError> {
+        let key = TapeKey::of(tape);
+        if let Some(code) = COMPILED.with_borrow(|m| m.get(&key).and_then(Weak::upgrade)) {
+            return Ok(code);
+        }
+        let code = Rc::new(NativeTape::new(tape)?);
+        COMPILED.with_borrow_mut(|m| {
+            m.retain(|_, held| held.strong_count() > 0);
+            m.insert(key, Rc::downgrade(&code));
+        });
+        Ok(code)
+    }
+
     /// Compiles `tape` for this machine.
     pub fn new(tape: &Tape) -> Result<NativeTape, NativeError> {
         if tape.inputs() != 3 || tape.children() != 0 || tape.outputs().is_empty() {
@@ -863,5 +915,54 @@ extern "C" fn grad_call(code: u32, scratch: *mut Scratch) {
         for (c, x) in [g.v, g.dx, g.dy, g.dz].into_iter().enumerate() {
             s[16 + c * 2 + lane] = x;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// x·y + c.
+    fn tape(c: f64) -> Tape {
+        let names = ["x", "y", "z"].map(String::from).to_vec();
+        let instrs = vec![
+            Instr {
+                op: Op::Mul,
+                out: Reg(4),
+                a: Reg(0),
+                b: Reg(1),
+            },
+            Instr {
+                op: Op::Add,
+                out: Reg(5),
+                a: Reg(4),
+                b: Reg(3),
+            },
+        ];
+        Tape::new(names, vec![c], instrs, vec![Reg(5)], 6, 0).unwrap()
+    }
+
+    /// One tape's code is compiled once while it is held, a tape differing in one
+    /// constant's bits has its own, and code nobody holds is freed.
+    #[test]
+    fn a_tape_held_is_compiled_once() {
+        let Ok(first) = NativeTape::shared(&tape(0.5)) else {
+            return; // A host Cranelift does not support: nothing is compiled.
+        };
+        let again = NativeTape::shared(&tape(0.5)).unwrap();
+        assert!(Rc::ptr_eq(&first, &again));
+        for other in [0.5f64.next_up(), -0.5] {
+            let code = NativeTape::shared(&tape(other)).unwrap();
+            assert!(!Rc::ptr_eq(&first, &code));
+            let p = DVec3::new(3.0, 2.0, 1.0);
+            assert_eq!(code.value_grad_at(p).value, 6.0 + other);
+        }
+        assert_eq!(first.value_grad_at(DVec3::new(3.0, 2.0, 1.0)).value, 6.5);
+        let held = Rc::downgrade(&first);
+        drop((first, again));
+        assert!(
+            held.upgrade().is_none(),
+            "the code outlived its last holder"
+        );
     }
 }
