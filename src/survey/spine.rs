@@ -730,6 +730,10 @@ pub const MAX_CELL_FORMS: usize = 4096;
 /// 32 times as wide (128 steps for the crease net's four).
 const LOCAL_LEVELS: u32 = 6;
 
+/// Cell coordinates below this (2⁵²) are whole numbers that a key holds exactly; beyond it
+/// the spine is not localized.
+const EXACT_CELLS: f64 = 4_503_599_627_370_496.0;
+
 impl Creased {
     pub fn new(spine: Spine, branches: Vec<Box<dyn Surface>>) -> Result<Creased, SpineError> {
         if branches.len() != spine.branch_count() {
@@ -813,7 +817,12 @@ impl Creased {
         let Some(size) = self.local_size else {
             return (None, self.spine.clone());
         };
-        let key = (p / size).to_array().map(crate::values::floor);
+        let cell = p / size;
+        // Far out (or NaN), a cell's key would not be exact: the whole spine.
+        if !(cell.abs().max_element() < EXACT_CELLS) {
+            return (None, self.spine.clone());
+        }
+        let key = cell.to_array().map(crate::values::floor);
         for slot in &mut self.last_local {
             if slot.as_ref().is_some_and(|(last, _)| *last == key)
                 && let Some((_, s)) = slot.take()
@@ -866,7 +875,7 @@ impl Creased {
             let mut side = size;
             for level in 0..LOCAL_LEVELS {
                 let (a, b) = ((lo / side).floor(), (hi / side).floor());
-                if a == b {
+                if a == b && a.abs().max_element() < EXACT_CELLS {
                     return if level == 0 {
                         self.spine_at(0.5 * (lo + hi))
                     } else {
@@ -1625,6 +1634,11 @@ mod tests {
                 });
                 assert_eq!(*at, cell.0);
             }
+            // Far out, where a cell's key would not be exact, the whole spine.
+            let far = DVec3::new(0.3, 1e300, -0.2);
+            assert_eq!(*localized.spine_at(far), spine);
+            let base = localized.base_for(far, far + DVec3::splat(size * 0.1));
+            assert_eq!(*base, spine);
         }
     }
 
