@@ -819,7 +819,8 @@ impl Creased {
         };
         let cell = p / size;
         // Far out (or NaN), a cell's key would not be exact: the whole spine.
-        if !(cell.abs().max_element() < EXACT_CELLS) {
+        let exact = cell.abs().max_element() < EXACT_CELLS;
+        if !exact {
             return (None, self.spine.clone());
         }
         let key = cell.to_array().map(crate::values::floor);
