@@ -707,9 +707,10 @@ pub struct Creased {
     /// so that a cell's pruning bounds only the few branches its parent left.
     local_size: Option<f64>,
     local: HashMap<(u32, [i64; 3]), Arc<Spine>, BitsHash>,
-    /// The cells of the last two point queries with their pruned spines, the last first
-    /// (a star's points, a chord's, alternate across a cell's side).
-    last_local: [Option<([i64; 3], Arc<Spine>)>; 2],
+    /// Cells of recent point queries with their pruned spines, one place for each parity
+    /// of the cell's coordinates: a star's points and a chord's straddle up to eight
+    /// neighbouring cells, and neighbours never share a place.
+    last_local: [Option<([i64; 3], Arc<Spine>)>; 8],
     /// The buffers of a point query (`whole`, `active`): the branches' values
     /// (`branches_of`) and the terms', reused rather than allocated for each of the crease
     /// net's many points.
@@ -729,6 +730,11 @@ pub const MAX_CELL_FORMS: usize = 4096;
 /// How many sizes of cells a `localize`d spine is pruned over: its cells and those 2, 4, …
 /// 32 times as wide (128 steps for the crease net's four).
 const LOCAL_LEVELS: u32 = 6;
+
+/// A cell's place among the recent ones: the parities of its coordinates.
+fn parity(key: [i64; 3]) -> usize {
+    (key[0] & 1 | (key[1] & 1) << 1 | (key[2] & 1) << 2) as usize
+}
 
 /// Cell coordinates below this (2⁵²) are whole numbers that a key holds exactly; beyond it
 /// the spine is not localized.
@@ -785,7 +791,7 @@ impl Creased {
             ],
             local_size: None,
             local: HashMap::default(),
-            last_local: [None, None],
+            last_local: Default::default(),
             branch_values: Vec::new(),
             term_scratch: Vec::new(),
         })
@@ -798,7 +804,7 @@ impl Creased {
         if !self.enumerated && size.is_finite() && size > 0.0 {
             self.local_size = Some(size);
             self.local.clear();
-            self.last_local = [None, None];
+            self.last_local = Default::default();
         }
     }
 
@@ -817,31 +823,28 @@ impl Creased {
         let Some(size) = self.local_size else {
             return (None, self.spine.clone());
         };
-        let cell = p / size;
+        // By the reciprocal, not a division a coordinate: a point within rounding of a side
+        // may land in the cell beside, whose pruning (over the cell and a margin) holds it.
+        let cell = p * size.recip();
         // Far out (or NaN), a cell's key would not be exact: the whole spine.
         let exact = cell.abs().max_element() < EXACT_CELLS;
         if !exact {
             return (None, self.spine.clone());
         }
         let key = cell.to_array().map(crate::values::floor);
-        for slot in &mut self.last_local {
-            if slot.as_ref().is_some_and(|(last, _)| *last == key)
-                && let Some((_, s)) = slot.take()
-            {
-                return (Some(key), s);
-            }
+        let slot = &mut self.last_local[parity(key)];
+        if slot.as_ref().is_some_and(|(last, _)| *last == key)
+            && let Some((_, s)) = slot.take()
+        {
+            return (Some(key), s);
         }
         (Some(key), self.local_spine(0, key, size))
     }
 
-    /// Keeps the spine `take_spine_at` gave as the last cell's, the one before it second.
+    /// Keeps the spine `take_spine_at` gave in its cell's place.
     fn give_back(&mut self, (key, spine): (Option<[i64; 3]>, Arc<Spine>)) {
         if let Some(key) = key {
-            let [last, before] = &mut self.last_local;
-            if last.is_some() {
-                *before = last.take();
-            }
-            *last = Some((key, spine));
+            self.last_local[parity(key)] = Some((key, spine));
         }
     }
 
@@ -1623,7 +1626,7 @@ mod tests {
                     (whole.1.lo.to_bits(), whole.1.hi.to_bits())
                 );
                 // The point query's spine is the whole one pruned over the point's cell.
-                let key = (c / size).floor();
+                let key = (c * size.recip()).floor();
                 let cell_lo = key * size - DVec3::splat(0.01 * size);
                 let cell_hi = cell_lo + DVec3::splat(1.02 * size);
                 let at = localized.spine_at(c);
