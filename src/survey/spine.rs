@@ -701,10 +701,10 @@ pub struct Creased {
     cache: Vec<(u64, ValueGrad)>,
     /// The side of the cells over which the spine is pruned for point queries (`localize`),
     /// and those pruned spines: f and its choices at a point need only the branches that
-    /// can be chosen near it.
-    /// Cells of `LOCAL_LEVELS` sizes are kept: `local_size`·2^level, each pruned from the
-    /// spine of the cell one level up that holds it (the whole spine above the top level),
-    /// so that a cell's pruning bounds only the few branches its parent left.
+    /// can be chosen near it. Cells of `LOCAL_LEVELS` sizes are kept, `local_size`·2^level,
+    /// each pruned from the spine of the cell one level up that holds it (the whole spine
+    /// above the top level), so that a cell's pruning bounds only the few branches its
+    /// parent left.
     local_size: Option<f64>,
     local: HashMap<(u32, [i64; 3]), Arc<Spine>, BitsHash>,
     /// Cells of recent point queries with their pruned spines, one place for each parity
@@ -880,11 +880,7 @@ impl Creased {
             for level in 0..LOCAL_LEVELS {
                 let (a, b) = ((lo / side).floor(), (hi / side).floor());
                 if a == b && a.abs().max_element() < EXACT_CELLS {
-                    return if level == 0 {
-                        self.spine_at(0.5 * (lo + hi))
-                    } else {
-                        self.local_spine(level, a.to_array().map(|c| c as i64), side)
-                    };
+                    return self.local_spine(level, a.to_array().map(|c| c as i64), side);
                 }
                 side *= 2.0;
             }
