@@ -68,21 +68,10 @@ impl Cover {
         self.hash_from(mesh, first);
     }
 
-    /// `add`, taking `part` as the mesh where `mesh` is empty (the pieces of a creased
-    /// surface: no copy of hundreds of thousands of triangles).
-    pub(super) fn adopt(&mut self, mesh: &mut Mesh, part: Mesh) {
-        if mesh.vertices.is_empty() && mesh.triangles.is_empty() && mesh.sides.is_empty() {
-            *mesh = part;
-            self.hash_from(mesh, 0);
-        } else {
-            self.add(mesh, &part);
-        }
-    }
-
-    /// Hashes the triangles of `mesh` from `first` on.
-    fn hash_from(&mut self, mesh: &Mesh, first: usize) {
-        // Triangles of `mesh` from before the cover (none, as the search makes it) are
-        // in no chain.
+    /// Hashes the triangles of `mesh` from `first` on (all of a mesh the search starts from:
+    /// the pieces of a creased surface, taken rather than copied by `add`).
+    pub(super) fn hash_from(&mut self, mesh: &Mesh, first: usize) {
+        // Triangles of `mesh` from before `first` that were never hashed are in no chain.
         self.next.resize(first, END);
         self.next.reserve(mesh.triangles.len() - first);
         for (t, tri) in mesh.triangles.iter().enumerate().skip(first) {

@@ -370,7 +370,8 @@ fn search_components(
         progress,
     };
     let Search { cover, out, .. } = &mut search;
-    cover.adopt(&mut out.mesh, existing);
+    out.mesh = existing;
+    cover.hash_from(&out.mesh, 0);
     // First pass, as the octree yields its leaves: seeds away from the faces are marched at
     // once (a march past `max_triangles` ends the search there); the others wait for the
     // second pass. A kept leaf is walked again with smaller leaves where it may hide what its

@@ -178,7 +178,7 @@ pub(super) fn slide(
                     continue;
                 };
                 if let Some(s) = score(mesh, tris, v, q, normals.normal, &normals.sides, Some(&now))
-                    && better(&now, &s, None)
+                    && better(&now, &s)
                 {
                     candidates.push((q, normals, s));
                 }
@@ -312,7 +312,7 @@ fn smooth_near(
                 continue;
             }
             if let Some(s) = score(mesh, tris, v, q, normal, &[], Some(&now))
-                && better(&now, &s, None)
+                && better(&now, &s)
             {
                 candidates.push((q, normal, s));
             }
@@ -431,23 +431,24 @@ fn turn_kept(then: f64, turn: f64) -> bool {
     turn >= then.min(TURN_COS)
 }
 
-/// Whether `s` is better than `now` by the rule of the module documentation, and better
-/// than the best so far.
-fn better(now: &Score, s: &Score, best: Option<&Score>) -> bool {
+/// Whether `s` gains on `now` by the rule of the module documentation.
+fn better(now: &Score, s: &Score) -> bool {
     let keep = KEEP_ANGLE.sin();
-    let gains = if now.min_sine < keep {
+    if now.min_sine < keep {
         s.min_sine > now.min_sine + SINE_GAIN
     } else {
         s.min_sine >= keep && s.ratios > now.ratios + RATIO_GAIN
-    };
-    gains
-        && best.is_none_or(|b| {
-            if now.min_sine < keep {
-                s.min_sine > b.min_sine
-            } else {
-                s.ratios > b.ratios
-            }
-        })
+    }
+}
+
+/// What a move from `now` ranks its places by: the star's smallest sine while it holds an
+/// angle below `KEEP_ANGLE`, else its sum of radius ratios.
+fn measure(now: &Score, s: &Score) -> f64 {
+    if now.min_sine < KEEP_ANGLE.sin() {
+        s.min_sine
+    } else {
+        s.ratios
+    }
 }
 
 /// The star of v (triangles `tris`) with v at q, its normal `normal` and piece normals
@@ -503,7 +504,7 @@ fn score(
 }
 
 /// Of `candidates` (places q for v in the order tried, each with what moves with it, each
-/// valid and gaining on `now`), the one a move takes: the best by `better`'s measure, the
+/// valid and gaining on `now`), the one a move takes: the best by `measure`, the
 /// first tried among equals, whose star is `within_chord`. The chord is checked down that
 /// ranking until a place passes — the place that keeping each candidate better than the
 /// best so far and within the chord gives, with fewer checks (a check evaluates f at every
@@ -522,18 +523,16 @@ fn best_within_chord<T>(
     })
 }
 
-/// The candidate of the highest measure (`better`'s, for `now`), the first among equals,
+/// The candidate of the highest `measure` for `now`, the first among equals,
 /// for which `passes` holds, asking `passes` down that ranking.
 fn best_passing<T>(
     now: &Score,
     mut candidates: Vec<(DVec3, T, Score)>,
     mut passes: impl FnMut(DVec3) -> bool,
 ) -> Option<(DVec3, T)> {
-    let by_angle = now.min_sine < KEEP_ANGLE.sin();
-    let measure = |s: &Score| if by_angle { s.min_sine } else { s.ratios };
     // Gaining on `now` makes the measures numbers (a NaN compares false). Stable: the first
     // tried leads among equals.
-    candidates.sort_by(|a, b| measure(&b.2).total_cmp(&measure(&a.2)));
+    candidates.sort_by(|a, b| measure(now, &b.2).total_cmp(&measure(now, &a.2)));
     candidates
         .into_iter()
         .find(|(q, _, _)| passes(*q))
@@ -655,7 +654,9 @@ mod tests {
             };
             let mut greedy: Option<usize> = None;
             for (q, k, s) in &tried {
-                if !valid(s) || !better(&now, s, greedy.map(|g| &tried[g].2)) {
+                let beats_best =
+                    greedy.is_none_or(|g| measure(&now, s) > measure(&now, &tried[g].2));
+                if !valid(s) || !better(&now, s) || !beats_best {
                     continue;
                 }
                 asked_greedy += 1;
@@ -665,7 +666,7 @@ mod tests {
             }
             let gaining: Vec<(DVec3, usize, Score)> = tried
                 .into_iter()
-                .filter(|(_, _, s)| valid(s) && better(&now, s, None))
+                .filter(|(_, _, s)| valid(s) && better(&now, s))
                 .collect();
             let ranked = best_passing(&now, gaining, |q| {
                 asked_ranked += 1;
