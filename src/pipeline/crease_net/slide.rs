@@ -113,7 +113,7 @@ pub(super) fn slide(
         let closed_repeat = traced[k].ends.is_none() && at == 0 && uses[v as usize] == 2;
         uses[v as usize] == 1 || closed_repeat
     });
-    let star = stars(mesh);
+    let star = Stars::new(mesh);
     let crease_vertices: Vec<u32> = movable.iter().map(|&(_, _, v)| v).collect();
     let near = near_creases(mesh, &star, &crease_vertices, &uses, limits);
     let sides_of = |mesh: &Mesh, v: u32| {
@@ -143,7 +143,7 @@ pub(super) fn slide(
             let old_sides: Vec<DVec3> =
                 mesh.sides[sides.clone()].iter().map(|s| s.normal).collect();
             let old_normal = mesh.normals[v as usize];
-            let tris = &star[v as usize];
+            let tris = star.of(v);
             let Some(now) = score(mesh, tris, v, p, old_normal, &old_sides, None) else {
                 continue;
             };
@@ -214,7 +214,7 @@ pub(super) fn slide(
 /// polygon, without sides, not on the box.
 fn near_creases(
     mesh: &Mesh,
-    star: &[Vec<u32>],
+    star: &Stars,
     movable: &[u32],
     uses: &[u32],
     limits: &Limits,
@@ -225,7 +225,7 @@ fn near_creases(
         uses[v as usize] == 0 && !(0..3).any(|k| p[k] == lo[k] || p[k] == hi[k])
     };
     let ring = |v: u32| {
-        star[v as usize]
+        star.of(v)
             .iter()
             .flat_map(|&t| mesh.triangles[t as usize])
             .filter(move |&w| w != v)
@@ -260,12 +260,12 @@ fn smooth_near(
     c: &mut Creased,
     mesh: &mut Mesh,
     near: &[u32],
-    star: &[Vec<u32>],
+    star: &Stars,
     limits: &Limits,
 ) -> usize {
     let mut moved = 0;
     for &v in near {
-        let tris = &star[v as usize];
+        let tris = star.of(v);
         let p = mesh.vertices[v as usize];
         let ring: Vec<DVec3> = tris
             .iter()
@@ -357,15 +357,41 @@ fn looped(poly: &[DVec3]) -> usize {
     }
 }
 
-/// The triangles around each vertex.
-fn stars(mesh: &Mesh) -> Vec<Vec<u32>> {
-    let mut star = vec![Vec::new(); mesh.vertices.len()];
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        for &v in tri {
-            star[v as usize].push(t as u32);
+/// The triangles around each vertex, in ascending order, in one array (a list a vertex
+/// was a few allocations for each of the hundreds of thousands of vertices of a part, of
+/// which the slide looks at a tenth).
+struct Stars {
+    /// Where each vertex's triangles start in `tris`; one more entry for the end.
+    first: Vec<usize>,
+    tris: Vec<u32>,
+}
+
+impl Stars {
+    fn new(mesh: &Mesh) -> Stars {
+        let mut first = vec![0usize; mesh.vertices.len() + 1];
+        for tri in &mesh.triangles {
+            for &v in tri {
+                first[v as usize + 1] += 1;
+            }
         }
+        for k in 1..first.len() {
+            first[k] += first[k - 1];
+        }
+        let mut next = first.clone();
+        let mut tris = vec![0u32; first[mesh.vertices.len()]];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for &v in tri {
+                tris[next[v as usize]] = t as u32;
+                next[v as usize] += 1;
+            }
+        }
+        Stars { first, tris }
     }
-    star
+
+    /// The triangles around v.
+    fn of(&self, v: u32) -> &[u32] {
+        &self.tris[self.first[v as usize]..self.first[v as usize + 1]]
+    }
 }
 
 /// A vertex's normal and its pieces' normals (`Mesh::sides`) at a new place.
