@@ -176,24 +176,7 @@ fn across_patches(vs: &[DVec3], tris: &[[u32; 3]], patch: &[u32], certified: &[b
     if !fits {
         return left((0..tris.len() as u32).collect());
     }
-    let cell = |x: f64, axis: usize| (((x - lo[axis]) / width) as usize).min(shape[axis] - 1);
-    // Calls `f` with each cell of a triangle's box while it returns true.
-    let cells_of = |t: &[u32; 3], f: &mut dyn FnMut(usize) -> bool| {
-        let b = bounds(t);
-        let l = [0, 1, 2].map(|k| cell(b.0[k], k));
-        let h = [0, 1, 2].map(|k| cell(b.1[k], k));
-        for x in l[0]..=h[0] {
-            for y in l[1]..=h[1] {
-                let row = (x * shape[1] + y) * shape[2];
-                for z in l[2]..=h[2] {
-                    if !f(row + z) {
-                        return false;
-                    }
-                }
-            }
-        }
-        true
-    };
+    let grid = CellGrid { lo, width, shape };
     let mut cells = vec![EMPTY; shape.iter().product()];
     // Triangles far larger than the mean (a soup, not a march) could make the marking
     // quadratic: past a budget of cells, every triangle is left to the search (still
@@ -201,7 +184,7 @@ fn across_patches(vs: &[DVec3], tris: &[[u32; 3]], patch: &[u32], certified: &[b
     let mut budget = 64 * tris.len() + MAX_CELLS;
     for (t, &p) in tris.iter().zip(patch) {
         let own = if certified[p as usize] { p } else { SHARED };
-        let within = cells_of(t, &mut |c| {
+        let within = grid.cells_of(bounds(t), |c| {
             let at = &mut cells[c];
             *at = if *at == EMPTY || *at == own {
                 own
@@ -217,9 +200,40 @@ fn across_patches(vs: &[DVec3], tris: &[[u32; 3]], patch: &[u32], certified: &[b
     }
     let triangles: Vec<u32> = (0..tris.len() as u32)
         .into_par_iter()
-        .filter(|&t| !cells_of(&tris[t as usize], &mut |c| cells[c] != SHARED))
+        .filter(|&t| !grid.cells_of(bounds(&tris[t as usize]), |c| cells[c] != SHARED))
         .collect();
     left(triangles)
+}
+
+/// The coarse grid of `across_patches`: cells `width` wide from `lo`, `shape` of them.
+struct CellGrid {
+    lo: DVec3,
+    width: f64,
+    shape: [usize; 3],
+}
+
+impl CellGrid {
+    /// Calls `f` with each cell of the box `b` while it returns true (inlined into each
+    /// caller, not a call through a pointer a cell).
+    #[inline(always)]
+    fn cells_of(&self, b: (DVec3, DVec3), mut f: impl FnMut(usize) -> bool) -> bool {
+        let cell = |x: f64, axis: usize| {
+            (((x - self.lo[axis]) / self.width) as usize).min(self.shape[axis] - 1)
+        };
+        let l = [0, 1, 2].map(|k| cell(b.0[k], k));
+        let h = [0, 1, 2].map(|k| cell(b.1[k], k));
+        for x in l[0]..=h[0] {
+            for y in l[1]..=h[1] {
+                let row = (x * self.shape[1] + y) * self.shape[2];
+                for z in l[2]..=h[2] {
+                    if !f(row + z) {
+                        return false;
+                    }
+                }
+            }
+        }
+        true
+    }
 }
 
 /// Whether the boundary `segs` of a patch of class `class` (each run with the patch on its
