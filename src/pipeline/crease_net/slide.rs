@@ -122,6 +122,9 @@ pub(super) fn slide(
         lo..hi
     };
     let mut moves = 0;
+    // Buffers a vertex, kept from one to the next.
+    let mut old_sides: Vec<DVec3> = Vec::new();
+    let mut candidates: Vec<(DVec3, Normals, Score)> = Vec::new();
     for _ in 0..ROUNDS {
         let mut moved = 0;
         for &(k, at, v) in &movable {
@@ -140,14 +143,14 @@ pub(super) fn slide(
             let reach = p.distance(before).min(p.distance(after));
             let longer = p.distance(before).max(p.distance(after));
             let sides = sides_of(mesh, v);
-            let old_sides: Vec<DVec3> =
-                mesh.sides[sides.clone()].iter().map(|s| s.normal).collect();
+            old_sides.clear();
+            old_sides.extend(mesh.sides[sides.clone()].iter().map(|s| s.normal));
             let old_normal = mesh.normals[v as usize];
             let tris = star.of(v);
             let Some(now) = score(mesh, tris, v, p, old_normal, &old_sides, None) else {
                 continue;
             };
-            let mut candidates: Vec<(DVec3, Normals, Score)> = Vec::new();
+            candidates.clear();
             for t in TRIES {
                 let guess = p + t * reach * tangent;
                 let (i, j) = traced[k].forms;
@@ -184,7 +187,7 @@ pub(super) fn slide(
                 }
             }
             let Some((q, normals)) =
-                best_within_chord(c, mesh, tris, v, &now, candidates, limits.tolerance)
+                best_within_chord(c, mesh, tris, v, &now, &mut candidates, limits.tolerance)
             else {
                 continue;
             };
@@ -264,15 +267,18 @@ fn smooth_near(
     limits: &Limits,
 ) -> usize {
     let mut moved = 0;
+    // Buffers a vertex, kept from one to the next.
+    let (mut ring, mut guesses, mut candidates) = (Vec::new(), Vec::new(), Vec::new());
     for &v in near {
         let tris = star.of(v);
         let p = mesh.vertices[v as usize];
-        let ring: Vec<DVec3> = tris
-            .iter()
-            .flat_map(|&t| mesh.triangles[t as usize])
-            .filter(|&w| w != v)
-            .map(|w| mesh.vertices[w as usize])
-            .collect();
+        ring.clear();
+        ring.extend(
+            tris.iter()
+                .flat_map(|&t| mesh.triangles[t as usize])
+                .filter(|&w| w != v)
+                .map(|w| mesh.vertices[w as usize]),
+        );
         if ring.is_empty() {
             continue;
         }
@@ -282,15 +288,13 @@ fn smooth_near(
         let Some(now) = score(mesh, tris, v, p, old_normal, &[], None) else {
             continue;
         };
-        let mut candidates: Vec<(DVec3, DVec3, Score)> = Vec::new();
+        candidates.clear();
         // Towards the centroid; and where the star holds an angle below `KEEP_ANGLE`, also
         // around the vertex (`AROUND`): a free corner between a crease corner and the
         // crease's next vertex may need to move sideways, not to the centroid, for its
         // smallest angle (29.4° → 33° at a lattice's junction).
-        let mut guesses: Vec<DVec3> = [1.0, 0.5]
-            .iter()
-            .map(|share| p + share * (centroid - p))
-            .collect();
+        guesses.clear();
+        guesses.extend([1.0, 0.5].map(|share| p + share * (centroid - p)));
         if now.min_sine < KEEP_ANGLE.sin() {
             let reach = ring.iter().map(|w| w.distance(p)).sum::<f64>() / ring.len() as f64;
             let (t1, t2) = tangent_frame(old_normal);
@@ -302,7 +306,7 @@ fn smooth_near(
                 }
             }
         }
-        for guess in guesses {
+        for &guess in &guesses {
             let Some((q, normal)) = onto_surface(c, guess, limits) else {
                 continue;
             };
@@ -318,7 +322,7 @@ fn smooth_near(
             }
         }
         if let Some((q, normal)) =
-            best_within_chord(c, mesh, tris, v, &now, candidates, limits.tolerance)
+            best_within_chord(c, mesh, tris, v, &now, &mut candidates, limits.tolerance)
         {
             mesh.vertices[v as usize] = q;
             mesh.normals[v as usize] = normal;
@@ -541,11 +545,12 @@ fn best_within_chord<T>(
     tris: &[u32],
     v: u32,
     now: &Score,
-    candidates: Vec<(DVec3, T, Score)>,
+    candidates: &mut Vec<(DVec3, T, Score)>,
     tolerance: f64,
 ) -> Option<(DVec3, T)> {
+    let mut passed = Vec::with_capacity(tris.len() + 1);
     best_passing(now, candidates, |q| {
-        within_chord(c, mesh, tris, v, q, tolerance)
+        within_chord(c, mesh, tris, v, q, tolerance, &mut passed)
     })
 }
 
@@ -553,14 +558,14 @@ fn best_within_chord<T>(
 /// for which `passes` holds, asking `passes` down that ranking.
 fn best_passing<T>(
     now: &Score,
-    mut candidates: Vec<(DVec3, T, Score)>,
+    candidates: &mut Vec<(DVec3, T, Score)>,
     mut passes: impl FnMut(DVec3) -> bool,
 ) -> Option<(DVec3, T)> {
     // Gaining on `now` makes the measures numbers (a NaN compares false). Stable: the first
-    // tried leads among equals.
+    // tried leads among equals. Drained: the caller's list is empty again after.
     candidates.sort_by(|a, b| measure(now, &b.2).total_cmp(&measure(now, &a.2)));
     candidates
-        .into_iter()
+        .drain(..)
         .find(|(q, _, _)| passes(*q))
         .map(|(q, moved, _)| (q, moved))
 }
@@ -574,6 +579,7 @@ fn within_chord(
     v: u32,
     q: DVec3,
     tolerance: f64,
+    passed: &mut Vec<u32>,
 ) -> bool {
     let near = |c: &mut Creased, p: DVec3| {
         let f = c.whole(p);
@@ -581,8 +587,8 @@ fn within_chord(
         g > 0.0 && f.value.abs() <= tolerance * g
     };
     // An edge at v is in two triangles of the star: its midpoint, once it passed, is not
-    // evaluated again.
-    let mut passed: Vec<u32> = Vec::with_capacity(tris.len() + 1);
+    // evaluated again (`passed`: the caller's buffer).
+    passed.clear();
     tris.iter().all(|&t| {
         let tri = mesh.triangles[t as usize];
         let at = |k: u32| if k == v { q } else { mesh.vertices[k as usize] };
@@ -690,11 +696,11 @@ mod tests {
                     greedy = Some(*k);
                 }
             }
-            let gaining: Vec<(DVec3, usize, Score)> = tried
+            let mut gaining: Vec<(DVec3, usize, Score)> = tried
                 .into_iter()
                 .filter(|(_, _, s)| valid(s) && better(&now, s))
                 .collect();
-            let ranked = best_passing(&now, gaining, |q| {
+            let ranked = best_passing(&now, &mut gaining, |q| {
                 asked_ranked += 1;
                 passes(q)
             });
