@@ -60,12 +60,26 @@ pub fn smallest_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
 /// The cosine of a triangle's smallest angle (its largest corner cosine), 1 where a corner
 /// is degenerate: `smallest_angle` is its arccosine in degrees (acos(1) = +0).
 fn smallest_angle_cosine(a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let cosine = |p: DVec3, q: DVec3, r: DVec3| {
-        let (u, v) = (q - p, r - p);
-        let d = u.length() * v.length();
-        (d > 0.0).then(|| (u.dot(v) / d).clamp(-1.0, 1.0))
+    cosine_of(a, b, c, sides(a, b, c))
+}
+
+/// The side lengths |ab|, |bc|, |ca|: `quality` computes them once a triangle for its
+/// angle, its radius ratio and its edges (the same bits as `p.distance(q)` either way
+/// round, since a difference's negation leaves its squares as they are).
+fn sides(a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
+    [a.distance(b), b.distance(c), c.distance(a)]
+}
+
+/// `smallest_angle_cosine` given the triangle's `sides`.
+fn cosine_of(a: DVec3, b: DVec3, c: DVec3, [ab, bc, ca]: [f64; 3]) -> f64 {
+    let cosine = |p: DVec3, q: DVec3, r: DVec3, d: f64| {
+        (d > 0.0).then(|| ((q - p).dot(r - p) / d).clamp(-1.0, 1.0))
     };
-    match (cosine(a, b, c), cosine(b, c, a), cosine(c, a, b)) {
+    match (
+        cosine(a, b, c, ab * ca),
+        cosine(b, c, a, bc * ab),
+        cosine(c, a, b, ca * bc),
+    ) {
         (Some(x), Some(y), Some(z)) => x.max(y).max(z),
         // A degenerate corner counts as 0° (as in `triangle_angles`).
         _ => 1.0,
@@ -120,12 +134,12 @@ pub fn quality(mesh: &Mesh) -> Quality {
             let mut sums = Sums::default();
             for (cosine, t) in cosines.iter_mut().zip(triangles) {
                 let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
-                *cosine = smallest_angle_cosine(a, b, c);
-                let ratio = radius_ratio(a, b, c);
+                let lengths = sides(a, b, c);
+                *cosine = cosine_of(a, b, c, lengths);
+                let ratio = ratio_of(a, b, c, lengths);
                 sums.ratio_sum += ratio;
                 sums.ratio_min = sums.ratio_min.min(ratio);
-                for (p, q) in [(a, b), (b, c), (c, a)] {
-                    let l = p.distance(q);
+                for l in lengths {
                     sums.emin = sums.emin.min(l);
                     sums.emax = sums.emax.max(l);
                     sums.esum += l;
@@ -204,7 +218,11 @@ pub fn quality(mesh: &Mesh) -> Quality {
 /// 2·inradius/circumradius of a triangle, = 16·area²/(abc·(a+b+c)) for side lengths a, b, c:
 /// 1 for an equilateral triangle, 0 for a degenerate one.
 pub fn radius_ratio(a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let sides = [a.distance(b), b.distance(c), c.distance(a)];
+    ratio_of(a, b, c, sides(a, b, c))
+}
+
+/// `radius_ratio` given the triangle's `sides`.
+fn ratio_of(a: DVec3, b: DVec3, c: DVec3, sides: [f64; 3]) -> f64 {
     let twice_area = (b - a).cross(c - a).length();
     let denominator = sides[0] * sides[1] * sides[2] * (sides[0] + sides[1] + sides[2]);
     if denominator > 0.0 {
@@ -304,18 +322,25 @@ impl From<&Quality> for MeshStats {
 }
 
 impl MeshReport {
-    /// The report of `mesh` on `surface`, with the mesh's `topology` where the caller has
-    /// it already. Topology and shape statistics need only the mesh: with more than one
-    /// thread in the pool (`--threads`) they are computed on other threads while this one
-    /// evaluates the surface at the vertices.
-    pub fn new(mesh: &Mesh, surface: &mut dyn Surface, topology: Option<Topology>) -> Self {
-        let (mut t, mut q, mut vertex_error) = (topology, None, 0.0);
+    /// The report of `mesh` on `surface`, with the mesh's topology and `quality` where the
+    /// caller has them already (`measured`). Topology and shape statistics need only the
+    /// mesh: with more than one thread in the pool (`--threads`) they are computed on other
+    /// threads while this one evaluates the surface at the vertices.
+    pub fn new(
+        mesh: &Mesh,
+        surface: &mut dyn Surface,
+        measured: Option<(Topology, Quality)>,
+    ) -> Self {
+        let (mut t, mut q) = measured.map_or((None, None), |(t, q)| (Some(t), Some(q)));
+        let mut vertex_error = 0.0;
         if rayon::current_num_threads() > 1 {
             rayon::in_place_scope(|s| {
                 if t.is_none() {
                     s.spawn(|_| t = Some(topology_of(mesh)));
                 }
-                s.spawn(|_| q = Some(quality(mesh)));
+                if q.is_none() {
+                    s.spawn(|_| q = Some(quality(mesh)));
+                }
                 vertex_error = max_vertex_error(mesh, surface);
             });
         } else {

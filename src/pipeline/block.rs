@@ -16,7 +16,7 @@ use crate::diag::{self, Diagnostic, messages};
 use crate::eval::Engine;
 use crate::march::{MarchError, MarchInput, PolygonRole, Start};
 use crate::mesh::progress::{Bars, Counts, estimate_triangles};
-use crate::mesh::quality::MeshReport;
+use crate::mesh::quality::{MeshReport, Quality};
 use crate::mesh::topology::Topology;
 use crate::mesh::{Mesh, NamedMesh, net};
 use crate::sema::program::{MeshDef, Program, SurfaceRef};
@@ -338,7 +338,7 @@ fn mesh_block(
         source,
         def,
         &mut surface,
-        (marched.mesh, pieced.topology),
+        (marched.mesh, pieced.measured),
         marched.max_chord_error,
         warnings,
         started,
@@ -400,20 +400,20 @@ const FAULT_HELP: &str = "`dist` and `offset` need the nearest point of their su
 /// What the user may change when no surface point is found near `start`.
 const START_HELP: &str = "move `start` nearer the surface, or give the mesh a `box` and no `start` to mesh every component in it";
 
-/// The meshed block with its report; the mesh comes with its topology where the march
-/// computed it already (the join of pieces).
+/// The meshed block with its report; the mesh comes with its topology and shape statistics
+/// where the march computed them already (the join of pieces).
 #[allow(clippy::too_many_arguments)]
 fn finish(
     program: &Program,
     source: &str,
     def: &MeshDef,
     surface: &mut CompiledSurface,
-    (mesh, topology): (Mesh, Option<Topology>),
+    (mesh, measured): (Mesh, Option<(Topology, Quality)>),
     max_chord_error: f64,
     warnings: Vec<String>,
     started: Instant,
 ) -> Meshed {
-    let report = MeshReport::new(&mesh, surface, topology);
+    let report = MeshReport::new(&mesh, surface, measured);
     Meshed {
         name: def.name.clone(),
         surface: surface_name(program, source, &def.surface),

@@ -52,7 +52,7 @@ use crate::march::settings::DEFAULT_QUALITY_RATIO;
 use crate::march::{self, Held, MarchError, MarchInput, MarchSettings, Marched, Start};
 use crate::mesh::Mesh;
 use crate::mesh::check::intersecting_pairs;
-use crate::mesh::quality;
+use crate::mesh::quality::{self, Quality};
 use crate::mesh::topology::{Topology, topology};
 use crate::solve::SurfacePoint;
 use crate::solve::curve::{self, CurveError, nearest_on_segment};
@@ -110,9 +110,9 @@ pub struct Pieced {
     pub cuts: Vec<Vec<DVec3>>,
     /// The axis cut across (0, 1, 2 for x, y, z) and the planes' positions along it.
     pub planes: Option<(usize, Vec<f64>)>,
-    /// The joined mesh's topology as the join checked it (None when marched whole): the
-    /// report takes it rather than computing it again.
-    pub topology: Option<Topology>,
+    /// The joined mesh's topology and shape statistics as the join checked them (None when
+    /// marched whole): the report takes them rather than computing them again.
+    pub measured: Option<(Topology, Quality)>,
 }
 
 /// Why a component was marched whole; only for the trace.
@@ -238,7 +238,7 @@ pub fn march(
         pieces: 1,
         cuts: Vec::new(),
         planes: None,
-        topology: None,
+        measured: None,
     })
 }
 
@@ -819,11 +819,13 @@ fn march_slabs(
         (BAND * input.step).max(r + longest_edge(&mesh))
     });
     // The topology and the checks after it need only the mesh: side by side on the pool.
-    let (topo, (crossing, shapes)) = rayon::join(
+    // The shape statistics are the report's (`Pieced::measured`).
+    let (topo, (crossing, shapes, at_cuts)) = rayon::join(
         || topology(&mesh),
         || {
             let crossing = !band(&mesh, axis, planes, reach).is_empty();
-            (crossing, cut_shapes(&mesh, &on))
+            let at_cuts = smallest_angle_where(&mesh, &on, true);
+            (crossing, quality::quality(&mesh), at_cuts)
         },
     );
     let on_the_box = |k: u32| on_box(mesh.vertices[k as usize], slabs.bbox);
@@ -854,15 +856,14 @@ fn march_slabs(
         return Err(NoCut::Joined("triangles of two pieces cross"));
     }
     // Away from the cuts only when a triangle at them is below the bar.
-    let at_cuts = shapes.at_cuts;
-    if at_cuts < CUT_ANGLE && at_cuts < smallest_angle_away(&mesh, &on) {
+    if at_cuts < CUT_ANGLE && at_cuts < smallest_angle_where(&mesh, &on, false) {
         return Err(NoCut::Angle { degrees: at_cuts });
     }
     // Slabs whose fronts start from their cut polygons can end below the mean radius ratio
     // the whole march reaches (flat superquadrics cut across, `SURFC_SWEEP_PIECES=2000`:
     // 0.965 in three slabs where the whole makes 0.977): such a cut is not taken.
     if settings.quality_angle > 0.0 {
-        let mean = shapes.mean_ratio;
+        let mean = shapes.radius_ratio_mean;
         let bar = settings.quality_ratio.min(DEFAULT_QUALITY_RATIO) - RATIO_MARGIN;
         if mean < bar {
             return Err(NoCut::Ratio { mean, bar });
@@ -897,7 +898,7 @@ fn march_slabs(
         pieces: n,
         cuts: slabs.cuts.clone(),
         planes: Some((axis, planes.to_vec())),
-        topology: Some(topo),
+        measured: Some((topo, shapes)),
     })
 }
 
@@ -921,35 +922,12 @@ fn longest_edge(mesh: &Mesh) -> f64 {
         .sqrt()
 }
 
-/// What the join asks of the triangles' shapes.
-struct CutShapes {
-    /// The smallest angle (degrees) of the triangles with a corner on a cut polygon.
-    at_cuts: f64,
-    /// The mean radius ratio (summed in triangle order).
-    mean_ratio: f64,
-}
-
-/// The joined mesh's `CutShapes` in one pass, `on` marking the cut polygons' vertices.
-fn cut_shapes(mesh: &Mesh, on: &[bool]) -> CutShapes {
-    let (mut at_cuts, mut sum) = (f64::INFINITY, 0.0);
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
-        if t.iter().any(|&k| on[k as usize]) {
-            at_cuts = at_cuts.min(quality::smallest_angle(a, b, c));
-        }
-        sum += quality::radius_ratio(a, b, c);
-    }
-    CutShapes {
-        at_cuts,
-        mean_ratio: sum / mesh.triangles.len().max(1) as f64,
-    }
-}
-
-/// The smallest angle (degrees) of the triangles with no corner on a cut polygon.
-fn smallest_angle_away(mesh: &Mesh, on: &[bool]) -> f64 {
+/// The smallest angle (degrees) of the triangles with a corner on a cut polygon (`at_cut`)
+/// or with none (`on` marks the cut polygons' vertices).
+fn smallest_angle_where(mesh: &Mesh, on: &[bool], at_cut: bool) -> f64 {
     mesh.triangles
         .iter()
-        .filter(|t| !t.iter().any(|&k| on[k as usize]))
+        .filter(|t| t.iter().any(|&k| on[k as usize]) == at_cut)
         .map(|t| {
             let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
             quality::smallest_angle(a, b, c)
@@ -960,22 +938,29 @@ fn smallest_angle_away(mesh: &Mesh, on: &[bool]) -> f64 {
 /// The crossing pairs among the triangles with a vertex within `reach` of a plane: where the
 /// pieces meet (each piece's own crossings were checked by its verification).
 fn band(mesh: &Mesh, axis: usize, planes: &[f64], reach: f64) -> Vec<[u32; 2]> {
-    let near = |k: u32| {
-        let x = mesh.vertices[k as usize][axis];
-        planes.iter().any(|&at| (x - at).abs() <= reach)
-    };
-    let mut ids: HashMap<u32, u32> = HashMap::new();
+    let near: Vec<bool> = mesh
+        .vertices
+        .iter()
+        .map(|v| planes.iter().any(|&at| (v[axis] - at).abs() <= reach))
+        .collect();
+    // Each vertex's index in the band, numbered as first met in triangle order (a vector
+    // over the whole mesh's vertices, not a map: the band of the fine sphere is 150 000
+    // triangles of 1.2 M, and a map's lookups were half the band's time).
+    const NONE: u32 = u32::MAX;
+    let mut ids = vec![NONE; mesh.vertices.len()];
     let mut sub = Mesh::default();
     for t in &mesh.triangles {
-        if !t.iter().any(|&k| near(k)) {
+        if !t.iter().any(|&k| near[k as usize]) {
             continue;
         }
         let tri = t.map(|k| {
-            *ids.entry(k).or_insert_with(|| {
+            let id = &mut ids[k as usize];
+            if *id == NONE {
+                *id = sub.vertices.len() as u32;
                 sub.vertices.push(mesh.vertices[k as usize]);
                 sub.normals.push(mesh.normals[k as usize]);
-                (sub.vertices.len() - 1) as u32
-            })
+            }
+            *id
         });
         sub.triangles.push(tri);
     }
