@@ -276,12 +276,12 @@ impl Sizing {
         let d = at.distance(sp.point);
         let free = parent.free - d;
         let binding = self.step / self.s.thickness_fraction;
-        let turn = sp.normal.dot(normal).clamp(-1.0, 1.0).acos();
+        let cos_turn = sp.normal.dot(normal).clamp(-1.0, 1.0);
         (self.s.inherit > 0.0
             && free >= binding
             && self.curvature_size(0.5 * parent.rho) >= self.step
-            && turn <= self.s.inherit * d / parent.rho)
-            .then_some((free, parent.rho))
+            && turn_within(cos_turn, self.s.inherit * d / parent.rho))
+        .then_some((free, parent.rho))
     }
 
     /// h allowed by a curvature radius ρ.
@@ -672,11 +672,62 @@ impl CapTree {
     }
 }
 
+/// Whether an angle of cosine `c` is at most `limit` (radians): `c.acos() <= limit`, the
+/// same answer, but without libm's `acos` (1 % of the fine sphere, once a new point) where
+/// `c` is clear of cos(`limit`) by far more than either side's rounding. For 0 ≤ x ≤ 1,
+/// 1 − x²/2 ≤ cos x ≤ 1 − x²/2 + x⁴/24; a cosine `TURN_BAND` above the upper bound is an
+/// angle at least `TURN_BAND` below `limit` (|d acos / dc| ≥ 1), where acos is within an
+/// ulp of π.
+fn turn_within(c: f64, limit: f64) -> bool {
+    if (0.0..=1.0).contains(&limit) {
+        let x2 = limit * limit;
+        let below = 1.0 - 0.5 * x2;
+        let above = below + x2 * x2 / 24.0;
+        if c > above + TURN_BAND {
+            return true;
+        }
+        if c < below - TURN_BAND {
+            return false;
+        }
+    }
+    c.acos() <= limit
+}
+
+/// How far (in cosine) `turn_within` keeps from the bounds of cos(limit) before it trusts
+/// them: far above the bounds' rounding (1e-16) and acos's (an ulp of π, 4e-16).
+const TURN_BAND: f64 = 1e-9;
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::solve::tangent_frame;
     use crate::surface::{NativeSurface, ValueGrad};
+
+    /// `turn_within` is `c.acos() <= limit` everywhere: cosines of random angles, the
+    /// cosines a few ulps either side of cos(limit) itself, and the ends (±1, NaN, limits
+    /// of 0, above 1 and negative). A band of 0 or a bound without its x⁴ term fails it.
+    #[test]
+    fn turn_within_is_the_acos_comparison() {
+        let mut unit = crate::testing::uniform(0x2545_f491_4f6c_dd1d);
+        let mut cases = Vec::new();
+        for _ in 0..200_000 {
+            let limit = 1.2 * unit() - 0.1;
+            let c = (limit + 0.02 * (unit() - 0.5)).cos();
+            cases.push((c, limit));
+            let at = limit.cos();
+            for k in -4i64..=4 {
+                cases.push((f64::from_bits((at.to_bits() as i64 + k) as u64), limit));
+            }
+        }
+        for c in [-1.0, 1.0, 0.0, f64::NAN, 1.0 - 1e-17] {
+            for limit in [0.0, 1e-9, 0.5, 1.0, 1.5, -0.1, f64::NAN, f64::INFINITY] {
+                cases.push((c, limit));
+            }
+        }
+        for (c, limit) in cases {
+            assert_eq!(turn_within(c, limit), c.acos() <= limit, "{c:e} {limit:e}");
+        }
+    }
 
     fn at(p: DVec3, n: DVec3) -> SurfacePoint {
         let (t1, t2) = tangent_frame(n);
