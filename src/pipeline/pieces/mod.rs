@@ -865,7 +865,7 @@ fn march_slabs(
     if settings.quality_angle > 0.0 {
         let mean = shapes.radius_ratio_mean;
         let bar = settings.quality_ratio.min(DEFAULT_QUALITY_RATIO) - RATIO_MARGIN;
-        if mean < bar {
+        if mean.is_nan() || mean < bar {
             return Err(NoCut::Ratio { mean, bar });
         }
     }
