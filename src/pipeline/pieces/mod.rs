@@ -599,11 +599,18 @@ pub(super) fn local_step(s: &mut dyn Surface, sizing: &Sizing, p: DVec3) -> f64 
 /// case's cut curves, which may end on the box's faces.
 pub(super) fn near_all(a: &[DVec3], b: &[DVec3], closed: bool, reach: f64) -> bool {
     let segments = b.len().saturating_sub(usize::from(!closed));
+    // Each point's search starts at the segment the point before was near: the two lines
+    // run alike, so it is usually the first looked at (every segment may still be).
+    let mut last = 0;
     a.iter().all(|&p| {
         b.len() == 1 && b[0].distance(p) <= reach
-            || (0..segments).any(|i| {
+            || (last..segments).chain(0..last).any(|i| {
                 let (u, v) = (b[i], b[(i + 1) % b.len()]);
-                (u + nearest_on_segment(p, u, v) * (v - u)).distance(p) <= reach
+                let near = (u + nearest_on_segment(p, u, v) * (v - u)).distance(p) <= reach;
+                if near {
+                    last = i;
+                }
+                near
             })
     })
 }
