@@ -230,9 +230,24 @@ impl Stage<'_> {
         // The rounds proper, then up to `SLIDE_ROUNDS` more while triangles stay below the
         // target, in which border vertices slide too.
         let total = limits.rounds + SLIDE_ROUNDS;
+        // A round that changes nothing (no flip, move, insertion or removal kept) leaves
+        // the mesh as it found it, and the next round of its kind tries a part of what it
+        // tried on that same mesh: the vertices it marks are the bad triangles' corners, a
+        // part of those it started from, and each flip, move, trial and removal is judged on
+        // the mesh alone (a failed trial is undone exactly). So the rest of its kind change
+        // nothing either and are skipped (one of the fine sphere's slabs ran seven such
+        // rounds of whole-mesh scans, 50 ms, around a triangle the ratios' phase then
+        // mended). Only on a surface that answers the same whatever the order of its
+        // queries: a `dist`'s warm starts would see the skipped rounds' queries missing.
+        let order_free = surface.value_gradient_batch(&[], &mut []);
+        let mut resume_at = 0;
         for round in 0..total {
+            if round < resume_at {
+                continue;
+            }
             let sliding = round >= limits.rounds;
             report.rounds += 1;
+            let (inserted_before, collapsed_before) = (report.inserted, report.collapsed);
             // 1. Flips over every edge (the first round) or the edges around what changed.
             let (queue, obtuse) = self.delaunay_queue(&dirty);
             let budget = 2 * self.tri.len() + 64;
@@ -399,6 +414,16 @@ impl Stage<'_> {
             let stalled = (moves as f64) < ROUNDS_STALL * self.pos.len() as f64;
             if !bad_left && (stalled || round + 1 >= limits.rounds) {
                 break;
+            }
+            let unchanged = flips == 0
+                && moves == 0
+                && report.inserted == inserted_before
+                && report.collapsed == collapsed_before;
+            if order_free && unchanged {
+                if sliding {
+                    break;
+                }
+                resume_at = limits.rounds;
             }
         }
         if self.tri.is_empty() {
