@@ -6,6 +6,7 @@
 use std::collections::{HashMap, HashSet};
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::CreaseError;
 use crate::mesh::Mesh;
@@ -97,33 +98,20 @@ fn first_flaw(mesh: &Mesh) -> Option<(usize, &'static str)> {
 /// and, where the pieces' normals there differ, each of them as a side (`Mesh::sides`, the
 /// parts' own sides carried along), so that writers can keep the edge sharp.
 pub(crate) fn merge(parts: &[Mesh]) -> Mesh {
-    merge_at(parts, None).0
-}
-
-/// `merge`, where given `only` the positions that may be shared: then only those go into a
-/// table (which stays in cache: the slabs of `pipeline::pieces` share only their cut
-/// polygons), and each vertex is looked up there rather than hashed into a table of all.
-/// Also returns which vertices of the result are among `only` (none without it). Slabs of
-/// one smooth surface (`only` given) have no sides: none are recorded.
-pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<bool>) {
     let vertices: usize = parts.iter().map(|p| p.vertices.len()).sum();
-    // Each position's id in the merged mesh, once it has one.
-    let mut index: HashMap<[u64; 3], Option<u32>, BitsHash> = match only {
-        Some(shared) => shared.iter().map(|&p| (bits(p), None)).collect(),
-        None => HashMap::with_capacity_and_hasher(vertices, BitsHash),
-    };
+    // Each position's id in the merged mesh.
+    let mut index: HashMap<[u64; 3], u32, BitsHash> =
+        HashMap::with_capacity_and_hasher(vertices, BitsHash);
     let mut out = Mesh {
         vertices: Vec::with_capacity(vertices),
         normals: Vec::with_capacity(vertices),
         triangles: Vec::with_capacity(parts.iter().map(|p| p.triangles.len()).sum()),
         sides: Vec::new(),
     };
-    let mut among = Vec::with_capacity(if only.is_some() { vertices } else { 0 });
     let mut met_again = Vec::new();
-    // Sides (slabs of one smooth surface, `only` given, have none): the normals met at each
-    // vertex met again, where a part's vertex with sides of its own brings those rather than
-    // its summed normal; `sided` marks the vertices whose first part brought sides.
-    let record_sides = only.is_none();
+    // Sides: the normals met at each vertex met again, where a part's vertex with sides of
+    // its own brings those rather than its summed normal; `sided` marks the vertices whose
+    // first part brought sides.
     let mut side_normals: HashMap<u32, Vec<DVec3>> = HashMap::new();
     let mut sided: HashSet<u32> = HashSet::new();
     for part in parts {
@@ -136,35 +124,24 @@ pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<boo
             .map(|(k, (v, n))| {
                 let fresh = out.vertices.len() as u32;
                 let has_sides = !part_sided.is_empty() && part_sided.contains(&(k as u32));
-                let slot = match only {
-                    Some(_) => index.get_mut(&bits(*v)),
-                    None => Some(index.entry(bits(*v)).or_insert(None)),
-                };
-                if let Some(&mut Some(id)) = slot {
-                    if record_sides {
-                        // When the vertex is first met again, the first normal met there is
-                        // still the sum's only term.
-                        let first = out.normals[id as usize];
-                        let met = side_normals.entry(id).or_insert_with(|| {
-                            if sided.contains(&id) {
-                                Vec::new()
-                            } else {
-                                vec![first]
-                            }
-                        });
-                        if !has_sides {
-                            met.push(*n);
+                let id = *index.entry(bits(*v)).or_insert(fresh);
+                if id != fresh {
+                    // When the vertex is first met again, the first normal met there is
+                    // still the sum's only term.
+                    let first = out.normals[id as usize];
+                    let met = side_normals.entry(id).or_insert_with(|| {
+                        if sided.contains(&id) {
+                            Vec::new()
+                        } else {
+                            vec![first]
                         }
+                    });
+                    if !has_sides {
+                        met.push(*n);
                     }
                     out.normals[id as usize] += *n;
                     met_again.push(id);
                     return id;
-                }
-                if only.is_some() {
-                    among.push(slot.is_some());
-                }
-                if let Some(slot) = slot {
-                    *slot = Some(fresh);
                 }
                 if has_sides {
                     sided.insert(fresh);
@@ -175,24 +152,129 @@ pub(crate) fn merge_at(parts: &[Mesh], only: Option<&[DVec3]>) -> (Mesh, Vec<boo
                 fresh
             })
             .collect();
-        if record_sides {
-            for side in &part.sides {
-                if let Some(&id) = ids.get(side.vertex as usize) {
-                    side_normals.entry(id).or_default().push(side.normal);
-                }
+        for side in &part.sides {
+            if let Some(&id) = ids.get(side.vertex as usize) {
+                side_normals.entry(id).or_default().push(side.normal);
             }
         }
         out.triangles
             .extend(part.triangles.iter().map(|t| t.map(|k| ids[k as usize])));
     }
+    normalise_met_again(&mut out.normals, met_again);
+    out.sides = sides(side_normals);
+    out
+}
+
+/// `merge` of slabs of one smooth surface (no sides), where only the positions `shared` may
+/// be shared (the slabs of `pipeline::pieces` share only their cut polygons): each vertex
+/// is looked up in a table of those alone, which stays in cache. Also returns which
+/// vertices of the result are among `shared`. The same mesh as `merge`, bit for bit, with
+/// the lookups and the copies on the pool, in three passes: each vertex's place in
+/// `shared` (in parallel, a part at a time); the ids in order, as `merge` gives them (a
+/// shared position takes the id of its first appearance, every other vertex a fresh one, so
+/// each part's fresh vertices are one run of ids); the vertices, normals, marks and
+/// triangles copied into each part's runs (in parallel). The normals of the vertices met
+/// again are then summed in the order they were met.
+pub(crate) fn merge_at(parts: &[Mesh], shared: &[DVec3]) -> (Mesh, Vec<bool>) {
+    const NONE: u32 = u32::MAX;
+    let mut slots: HashMap<[u64; 3], u32, BitsHash> = HashMap::default();
+    for &p in shared {
+        let next = slots.len() as u32;
+        slots.entry(bits(p)).or_insert(next);
+    }
+    let hits: Vec<Vec<u32>> = parts
+        .par_iter()
+        .map(|part| {
+            (part.vertices.iter())
+                .map(|v| slots.get(&bits(*v)).copied().unwrap_or(NONE))
+                .collect()
+        })
+        .collect();
+    // Ids in the order the sequential merge gives them; the normals met again, in order.
+    let mut first = vec![NONE; slots.len()];
+    let mut fresh = 0u32;
+    let mut again: Vec<(u32, DVec3)> = Vec::new();
+    let mut starts = Vec::with_capacity(parts.len());
+    let ids: Vec<Vec<u32>> = (parts.iter().zip(&hits))
+        .map(|(part, hits)| {
+            starts.push(fresh);
+            (hits.iter().zip(&part.normals))
+                .map(|(&slot, &n)| match first.get(slot as usize) {
+                    Some(&id) if id != NONE => {
+                        again.push((id, n));
+                        id
+                    }
+                    _ => {
+                        if let Some(f) = first.get_mut(slot as usize) {
+                            *f = fresh;
+                        }
+                        fresh += 1;
+                        fresh - 1
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let total = fresh as usize;
+    let mut out = Mesh {
+        vertices: vec![DVec3::ZERO; total],
+        normals: vec![DVec3::ZERO; total],
+        triangles: vec![[0; 3]; parts.iter().map(|p| p.triangles.len()).sum()],
+        sides: Vec::new(),
+    };
+    let mut among = vec![false; total];
+    // Each part's runs of the output, split off in part order.
+    let mut runs = Vec::with_capacity(parts.len());
+    let (mut vs, mut ns, mut ams, mut ts) = (
+        &mut out.vertices[..],
+        &mut out.normals[..],
+        &mut among[..],
+        &mut out.triangles[..],
+    );
+    for (k, part) in parts.iter().enumerate() {
+        let end = starts.get(k + 1).copied().unwrap_or(fresh);
+        let count = (end - starts[k]) as usize;
+        let (v, v_rest) = std::mem::take(&mut vs).split_at_mut(count);
+        let (n, n_rest) = std::mem::take(&mut ns).split_at_mut(count);
+        let (a, a_rest) = std::mem::take(&mut ams).split_at_mut(count);
+        let (t, t_rest) = std::mem::take(&mut ts).split_at_mut(part.triangles.len());
+        (vs, ns, ams, ts) = (v_rest, n_rest, a_rest, t_rest);
+        runs.push((v, n, a, t));
+    }
+    runs.into_par_iter()
+        .enumerate()
+        .for_each(|(k, (vs, ns, ams, ts))| {
+            let (part, ids, hits, start) = (&parts[k], &ids[k], &hits[k], starts[k]);
+            for (i, &id) in ids.iter().enumerate() {
+                if id >= start {
+                    let at = (id - start) as usize;
+                    vs[at] = part.vertices[i];
+                    // Summed from zero (a −0 component becomes +0), as `merge_at` does.
+                    ns[at] = DVec3::ZERO + part.normals[i];
+                    ams[at] = hits[i] != NONE;
+                }
+            }
+            for (t, tri) in ts.iter_mut().zip(&part.triangles) {
+                *t = tri.map(|k| ids[k as usize]);
+            }
+        });
+    let met_again: Vec<u32> = again.iter().map(|&(id, _)| id).collect();
+    for (id, n) in again {
+        out.normals[id as usize] += n;
+    }
+    normalise_met_again(&mut out.normals, met_again);
+    (out, among)
+}
+
+/// The summed normals of the vertices met again (`met_again`, in any order, repeats
+/// allowed), each made a unit vector (a zero sum kept as it is).
+fn normalise_met_again(normals: &mut [DVec3], mut met_again: Vec<u32>) {
     met_again.sort_unstable();
     met_again.dedup();
     for id in met_again {
-        let n = &mut out.normals[id as usize];
+        let n = &mut normals[id as usize];
         *n = n.normalize_or(*n);
     }
-    out.sides = sides(side_normals);
-    (out, among)
 }
 
 /// The sides of the vertices where different normals met, sorted by vertex, each normal

@@ -815,7 +815,7 @@ fn march_slabs(
     // Only the polygons' vertices looked up (`merge_at`): the only ones two slabs share, bit
     // for bit, since a polygon vertex is a mesh vertex with its coordinates (`merge`, which
     // hashes every vertex, took a fifth of a second on the fine sphere in one thread).
-    let (mesh, on) = merge_at(&parts, Some(&slabs.shared));
+    let (mesh, on) = merge_at(&parts, &slabs.shared);
     drop(parts);
     let seams::Polished { mesh, on, reach } =
         seams::polish(fork, input, settings, mesh, on, slabs.bbox, (axis, planes));
@@ -1035,7 +1035,7 @@ mod tests {
             .iter()
             .flat_map(|c| c.loops.iter().flatten().copied())
             .collect();
-        let (joined, on) = merge_at(&parts, Some(&shared));
+        let (joined, on) = merge_at(&parts, &shared);
         let merged = merge(&parts);
         let bits = |vs: &[DVec3]| -> Vec<[u64; 3]> {
             vs.iter().map(|v| v.to_array().map(f64::to_bits)).collect()
