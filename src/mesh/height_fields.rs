@@ -223,11 +223,15 @@ impl CellGrid {
     /// caller, not a call through a pointer a cell).
     #[inline(always)]
     fn cells_of(&self, b: (DVec3, DVec3), mut f: impl FnMut(usize) -> bool) -> bool {
+        // Through i64, a single conversion where usize takes several, and clamped: monotone
+        // all the same (NaN and below zero to the first cell, as `as usize` gives them).
         let cell = |x: f64, axis: usize| {
-            (((x - self.lo[axis]) * self.per_width) as usize).min(self.shape[axis] - 1)
+            (((x - self.lo[axis]) * self.per_width) as i64).clamp(0, self.shape[axis] as i64 - 1)
+                as usize
         };
-        let l = [0, 1, 2].map(|k| cell(b.0[k], k));
-        let h = [0, 1, 2].map(|k| cell(b.1[k], k));
+        let (l, h) = (b.0.to_array(), b.1.to_array());
+        let l = [cell(l[0], 0), cell(l[1], 1), cell(l[2], 2)];
+        let h = [cell(h[0], 0), cell(h[1], 1), cell(h[2], 2)];
         for x in l[0]..=h[0] {
             for y in l[1]..=h[1] {
                 let row = (x * self.shape[1] + y) * self.shape[2];
