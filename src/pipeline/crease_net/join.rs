@@ -249,7 +249,7 @@ pub(crate) fn merge_at(parts: &[Mesh], shared: &[DVec3]) -> (Mesh, Vec<bool>) {
                 if id >= start {
                     let at = (id - start) as usize;
                     vs[at] = part.vertices[i];
-                    // Summed from zero (a −0 component becomes +0), as `merge_at` does.
+                    // Summed from zero (a −0 component becomes +0), as `merge` does.
                     ns[at] = DVec3::ZERO + part.normals[i];
                     ams[at] = hits[i] != NONE;
                 }
@@ -258,9 +258,10 @@ pub(crate) fn merge_at(parts: &[Mesh], shared: &[DVec3]) -> (Mesh, Vec<bool>) {
                 *t = tri.map(|k| ids[k as usize]);
             }
         });
-    let met_again: Vec<u32> = again.iter().map(|&(id, _)| id).collect();
+    let mut met_again = Vec::with_capacity(again.len());
     for (id, n) in again {
         out.normals[id as usize] += n;
+        met_again.push(id);
     }
     normalise_met_again(&mut out.normals, met_again);
     (out, among)

@@ -836,8 +836,9 @@ fn march_slabs(
                 // Polished seams: crossings are looked for as far from the planes as they
                 // reach, and a triangle's longest edge beyond (a triangle that crosses one
                 // of the polished patch's has a corner there), between any two triangles.
+                // (The statistics' longest edge is the longest edge, bit for bit.)
                 Some(r) => Band {
-                    reach: (BAND * input.step).max(r + longest_edge(&mesh)),
+                    reach: (BAND * input.step).max(r + shapes.max_edge),
                     slab_ends: None,
                 },
                 // Else only between two slabs: each slab's own crossings were checked by
@@ -936,20 +937,6 @@ fn march_slabs(
 /// coordinate exactly).
 fn on_box(v: DVec3, bbox: Option<(DVec3, DVec3)>) -> bool {
     bbox.is_some_and(|(lo, hi)| v.cmpeq(lo).any() || v.cmpeq(hi).any())
-}
-
-/// The longest edge of `mesh`.
-fn longest_edge(mesh: &Mesh) -> f64 {
-    let v = |k: u32| mesh.vertices[k as usize];
-    mesh.triangles
-        .iter()
-        .map(|&[a, b, c]| {
-            v(a).distance_squared(v(b))
-                .max(v(b).distance_squared(v(c)))
-                .max(v(c).distance_squared(v(a)))
-        })
-        .fold(0.0, f64::max)
-        .sqrt()
 }
 
 /// The smallest angle (degrees) of the triangles with a corner on a cut polygon (`at_cut`)
