@@ -26,13 +26,7 @@ impl Edges {
     /// The edge uses of `triangles` over `vertices` vertices (indices at or above it are
     /// counted too: the buckets grow to the largest index).
     pub fn new(vertices: usize, triangles: &[[u32; 3]]) -> Edges {
-        let n = triangles
-            .iter()
-            .flatten()
-            .map(|&k| k as usize + 1)
-            .max()
-            .unwrap_or(0)
-            .max(vertices);
+        let n = index_bound(vertices, triangles);
         let mut start = vec![0u32; n + 1];
         for t in triangles {
             for k in 0..3 {
@@ -83,6 +77,17 @@ impl Edges {
                 .map(move |run| (lo as u32, run[0].hi, run))
         })
     }
+}
+
+/// `vertices`, or one past the largest index of `triangles` where that is more. A fold of
+/// each triangle's largest corner: a flattened iterator (three corners a step) took 1.3 % of
+/// the fine sphere's run across its callers.
+pub fn index_bound(vertices: usize, triangles: &[[u32; 3]]) -> usize {
+    if triangles.is_empty() {
+        return vertices;
+    }
+    let largest = (triangles.iter()).fold(0, |m: u32, t| m.max(t[0]).max(t[1]).max(t[2]));
+    (largest as usize + 1).max(vertices)
 }
 
 fn insertion_sort(s: &mut [EdgeUse]) {

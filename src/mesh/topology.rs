@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use super::Mesh;
-use super::edges::Edges;
+use super::edges::{Edges, index_bound};
 
 /// An undirected edge (smaller vertex index first).
 pub type Edge = [u32; 2];
@@ -66,14 +66,7 @@ pub(super) fn union(parent: &mut [u32], a: u32, b: u32) {
 /// Computes the topology of `mesh`, in time linear in its size (edges from
 /// [`Edges`], components by union–find).
 pub fn topology(mesh: &Mesh) -> Topology {
-    let nv = mesh.vertices.len().max(
-        mesh.triangles
-            .iter()
-            .flatten()
-            .map(|&k| k as usize + 1)
-            .max()
-            .unwrap_or(0),
-    );
+    let nv = index_bound(mesh.vertices.len(), &mesh.triangles);
     // The edges and the components are independent: side by side on the rayon pool.
     let (edges, (used, mut parent, degenerate)) = rayon::join(
         || Edges::new(mesh.vertices.len(), &mesh.triangles),

@@ -74,9 +74,12 @@ impl Marcher<'_> {
         cands.clear();
         self.hash.for_near(pa, |b, pb, hb| {
             let r = near * ha.min(hb);
-            if pb.distance_squared(pa) < r * r {
-                cands.push((b, pb));
-            }
+            // Pushed, then dropped again if too far, without a branch: about one candidate
+            // in three is kept, in no order a branch predictor learns (the filter took
+            // 8 % of the fine sphere's run with a branch here).
+            let far = !(pb.distance_squared(pa) < r * r);
+            cands.push((b, pb));
+            cands.truncate(cands.len() - usize::from(far));
         });
         let (t1a, t2a, na) = (
             self.t1[pa_id.index()],
