@@ -70,12 +70,45 @@ impl Edges {
     }
 
     /// Each undirected edge as (lo, hi, its uses), in (lo, hi) order.
-    pub fn runs(&self) -> impl Iterator<Item = (u32, u32, &[EdgeUse])> {
-        self.start.windows(2).enumerate().flat_map(move |(lo, w)| {
-            self.uses[w[0] as usize..w[1] as usize]
-                .chunk_by(|x, y| x.hi == y.hi)
-                .map(move |run| (lo as u32, run[0].hi, run))
-        })
+    #[inline]
+    pub fn runs(&self) -> Runs<'_> {
+        Runs {
+            edges: self,
+            lo: 0,
+            at: 0,
+        }
+    }
+}
+
+/// The iterator of [`Edges::runs`]: one walk along the uses, the bucket's vertex moved on
+/// where a bucket ends. (Written out: as a `flat_map` of `chunk_by`s it was a call a run,
+/// which the topology of the fine sphere's 3.7 M edges spent 1 % of the run in.)
+pub struct Runs<'a> {
+    edges: &'a Edges,
+    /// The bucket (lower vertex) of the use at `at`, or past the last bucket.
+    lo: usize,
+    at: usize,
+}
+
+impl<'a> Iterator for Runs<'a> {
+    type Item = (u32, u32, &'a [EdgeUse]);
+
+    #[inline]
+    fn next(&mut self) -> Option<Self::Item> {
+        let (start, uses) = (&self.edges.start, &self.edges.uses);
+        // The bucket the next use is in (empty buckets skipped).
+        while self.lo + 1 < start.len() && start[self.lo + 1] as usize <= self.at {
+            self.lo += 1;
+        }
+        let end = *start.get(self.lo + 1)? as usize;
+        let from = self.at;
+        let hi = uses[from].hi;
+        let mut to = from + 1;
+        while to < end && uses[to].hi == hi {
+            to += 1;
+        }
+        self.at = to;
+        Some((self.lo as u32, hi, &uses[from..to]))
     }
 }
 
