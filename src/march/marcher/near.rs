@@ -77,9 +77,9 @@ impl Marcher<'_> {
             // Pushed, then dropped again if too far, without a branch: about one candidate
             // in three is kept, in no order a branch predictor learns (the filter took
             // 8 % of the fine sphere's run with a branch here).
-            let far = !(pb.distance_squared(pa) < r * r);
+            let within = pb.distance_squared(pa) < r * r;
             cands.push((b, pb));
-            cands.truncate(cands.len() - usize::from(far));
+            cands.truncate(cands.len() - usize::from(!within));
         });
         let (t1a, t2a, na) = (
             self.t1[pa_id.index()],
