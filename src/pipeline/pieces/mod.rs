@@ -776,16 +776,7 @@ fn march_slabs(
     let (axis, planes, chi) = (slabs.axis, &slabs.planes[..], slabs.chi);
     let n = planes.len() + 1;
     let limit = input.max_triangles.unwrap_or(settings.max_triangles);
-    // The slabs at the ends of the axis first, then inwards: they cost the most, which the
-    // survey's areas do not tell (one thread; the end slabs against the rest: the fine
-    // sphere 0.19–0.24 s against 0.14–0.21, the torus at step 0.01 0.10 s against
-    // 0.04–0.11, genus 3 at 0.02 0.22–0.25 s against 0.15–0.21, at equal or smaller
-    // areas). Taken in slab order, the fine sphere's two threads ended 64 ms apart.
-    let outside_in: Vec<usize> = (0..n / 2)
-        .flat_map(|k| [k, n - 1 - k])
-        .chain((n % 2 == 1).then_some(n / 2))
-        .collect();
-    let marched = in_turn(&slabs.inputs, &outside_in, |piece, inp| {
+    let marched = in_turn(&slabs.inputs, &outside_in(n), |piece, inp| {
         let mut s = fork().ok_or(NoCut::Fork)?;
         march::march_verified(&mut s, Some(fork), inp, settings, progress)
             .map_err(|source| NoCut::Piece { piece, source })
@@ -937,6 +928,19 @@ fn march_slabs(
     })
 }
 
+/// 0, n − 1, 1, n − 2, …: the order the threads take the slabs in. The slabs at the ends of
+/// the axis cost the most, which the survey's areas do not tell (one thread; the end slabs
+/// against the rest: the fine sphere 0.19–0.24 s against 0.14–0.21, the torus at step 0.01
+/// 0.10 s against 0.04–0.11, genus 3 at 0.02 0.22–0.25 s against 0.15–0.21, at equal or
+/// smaller areas); taken last, they left a thread idle (taken in slab-order halves, the fine
+/// sphere's two threads ended up to 64 ms apart).
+fn outside_in(n: usize) -> Vec<usize> {
+    (0..n / 2)
+        .flat_map(|k| [k, n - 1 - k])
+        .chain((n % 2 == 1).then_some(n / 2))
+        .collect()
+}
+
 /// `run` on every item on the rayon pool, the results in the items' order: each thread
 /// takes the next item in `order` (every index once) when it is free, so the threads end
 /// at most one item apart. A thread that waits inside an item (for work of its own it
@@ -1057,8 +1061,8 @@ mod tests {
     use super::*;
     use crate::pipeline::crease_net::merge;
 
-    /// `in_turn` runs every item once and gives the results in the items' order, whatever
-    /// the order taken and the pool: two threads, one thread, and called again inside an
+    /// `outside_in` is every slab once; `in_turn` runs every item once and gives the
+    /// results in the items' order, whatever the order taken and the pool: two threads, one thread, and called again inside an
     /// item (the inner call's items run even where every taker declines, on a pool of one).
     #[test]
     fn in_turn_runs_every_item_once_and_keeps_their_order() {
@@ -1071,10 +1075,10 @@ mod tests {
             pool.install(|| {
                 for n in [0usize, 1, 2, 5, 8] {
                     let items: Vec<usize> = (0..n).map(|k| 10 * k).collect();
-                    let order: Vec<usize> = (0..n / 2)
-                        .flat_map(|k| [k, n - 1 - k])
-                        .chain((n % 2 == 1).then_some(n / 2))
-                        .collect();
+                    let order = outside_in(n);
+                    let mut sorted = order.clone();
+                    sorted.sort_unstable();
+                    assert_eq!(sorted, (0..n).collect::<Vec<_>>(), "every slab once");
                     let runs = AtomicUsize::new(0);
                     let got = in_turn(&items, &order, |k, &item| {
                         runs.fetch_add(1, Ordering::Relaxed);
