@@ -112,9 +112,8 @@ impl<'a> Iterator for Runs<'a> {
     }
 }
 
-/// `vertices`, or one past the largest index of `triangles` where that is more. A fold of
-/// each triangle's largest corner: a flattened iterator (three corners a step) took 1.3 % of
-/// the fine sphere's run across its callers.
+/// `vertices`, or one past the largest index of `triangles` where that is more (the bound
+/// `Edges::new` and `topology` both size their per-vertex tables by).
 pub fn index_bound(vertices: usize, triangles: &[[u32; 3]]) -> usize {
     if triangles.is_empty() {
         return vertices;

@@ -1062,8 +1062,9 @@ mod tests {
     use crate::pipeline::crease_net::merge;
 
     /// `outside_in` is every slab once; `in_turn` runs every item once and gives the
-    /// results in the items' order, whatever the order taken and the pool: two threads, one thread, and called again inside an
-    /// item (the inner call's items run even where every taker declines, on a pool of one).
+    /// results in the items' order, whatever the order taken and the pool: one, two and
+    /// three threads, and called again inside an item (the inner call's items run even
+    /// where every taker declines, on a pool of one).
     #[test]
     fn in_turn_runs_every_item_once_and_keeps_their_order() {
         use std::sync::atomic::AtomicUsize;
