@@ -218,7 +218,7 @@ fn against_surface(
         let h = m.h[a as usize].max(m.h[b as usize]);
         let flaw = match run.len() {
             1 if !allowed_open(a, b) => Some(Flaw::OpenEdge),
-            2 if run[0].forward == run[1].forward => Some(Flaw::Misoriented),
+            2 if run[0].forward() == run[1].forward() => Some(Flaw::Misoriented),
             n if n > 2 => Some(Flaw::NonManifoldEdge),
             _ => None,
         };

@@ -80,13 +80,13 @@ pub(super) fn uncertified(vs: &[DVec3], tris: &[[u32; 3]], edges: Option<&Edges>
     // is in one or two triangles, `patches` saw).
     let mut boundary: Vec<(u32, [u32; 2])> = Vec::new();
     for (lo, hi, uses) in edges.runs() {
-        let of = |k: usize| patch[uses[k].triangle as usize];
+        let of = |k: usize| patch[uses[k].triangle() as usize];
         if uses.len() == 2 && of(0) == of(1) {
             continue;
         }
         for (k, u) in uses.iter().enumerate() {
             if certified[of(k) as usize] {
-                boundary.push((of(k), if u.forward { [lo, hi] } else { [hi, lo] }));
+                boundary.push((of(k), if u.forward() { [lo, hi] } else { [hi, lo] }));
             }
         }
     }
@@ -503,10 +503,10 @@ fn patches(edges: &Edges, classes: &[u8]) -> Option<(Vec<u32>, Vec<u8>)> {
         match uses {
             [_] => {}
             [u, w] => {
-                if u.forward == w.forward {
+                if u.forward() == w.forward() {
                     return None;
                 }
-                let (a, b) = (u.triangle, w.triangle);
+                let (a, b) = (u.triangle(), w.triangle());
                 if classes[a as usize] == classes[b as usize] && classes[a as usize] != NONE {
                     union(&mut parent, a, b);
                 }

@@ -95,7 +95,7 @@ pub fn topology(mesh: &Mesh) -> Topology {
     let mut edge_count = 0usize;
     for (lo, hi, run) in edges.runs() {
         edge_count += 1;
-        let forward = run.iter().filter(|u| u.forward).count();
+        let forward = run.iter().filter(|u| u.forward()).count();
         match run.len() {
             1 => boundary_edges.push(if forward == 1 { [lo, hi] } else { [hi, lo] }),
             2 => {

@@ -32,7 +32,7 @@ pub(super) fn check_joined(mesh: &Mesh, groups: &[u32]) -> Result<(), CreaseErro
     // first triangle in order that shows it is looked for (`first_flaw`).
     let edges = Edges::new(mesh.vertices.len(), &mesh.triangles);
     let twice = edges.runs().any(|(_, _, run)| {
-        let forward = run.iter().filter(|u| u.forward).count();
+        let forward = run.iter().filter(|u| u.forward()).count();
         forward > 1 || run.len() - forward > 1
     });
     let flawed = twice || (0..mesh.triangles.len()).any(|n| !faces_its_normals(mesh, n));
