@@ -35,7 +35,7 @@ impl Hasher for CellHasher {
 type Cell = u64;
 
 /// A node in its cell: its id, position and number.
-type Entry = (NodeId, DVec3, f64);
+pub type Entry = (NodeId, DVec3, f64);
 
 /// Nodes by cell.
 #[derive(Debug)]
@@ -91,9 +91,11 @@ impl SpatialHash {
         }
     }
 
-    /// Calls `f` with every node within the radius of `p` (and some a little farther), its
-    /// position and number.
-    pub fn for_near(&self, p: DVec3, mut f: impl FnMut(NodeId, DVec3, f64)) {
+    /// Calls `f` with the nodes of each cell that may hold nodes within the radius of `p`
+    /// (and some a little farther), each with its position and number, a cell's nodes as
+    /// one slice: the caller filters them in a loop of its own (as a call a node, its
+    /// filter's kept count went through memory from one node to the next).
+    pub fn for_near(&self, p: DVec3, mut f: impl FnMut(&[Entry])) {
         // The cells the cube p ± radius overlaps: 1 or 2 per axis (1.25³ ≈ 2 on average).
         let lo = ((p - self.radius) * self.inv_cell).to_array().map(floor);
         let hi = ((p + self.radius) * self.inv_cell).to_array().map(floor);
@@ -101,9 +103,7 @@ impl SpatialHash {
             for y in lo[1]..=hi[1] {
                 for z in lo[2]..=hi[2] {
                     if let Some(v) = self.cells.get(&pack(x, y, z)) {
-                        for &(n, q, h) in v {
-                            f(n, q, h);
-                        }
+                        f(v);
                     }
                 }
             }
@@ -135,9 +135,11 @@ mod tests {
             let t = k as f64 * 0.29;
             let probe = DVec3::new(1.7 * t.cos(), -1.9 * (0.8 * t).sin(), 0.9 * (1.7 * t).cos());
             let mut found = Vec::new();
-            h.for_near(probe, |n, _, number| {
-                assert_eq!(number, n.0 as f64, "the number inserted with the node");
-                found.push(n.0 as usize);
+            h.for_near(probe, |cell| {
+                for &(n, _, number) in cell {
+                    assert_eq!(number, n.0 as f64, "the number inserted with the node");
+                    found.push(n.0 as usize);
+                }
             });
             for (i, &p) in pts.iter().enumerate() {
                 let removed = [3usize, 50, 51, 120].contains(&i);
