@@ -315,6 +315,7 @@ fn mesh_block(
         max_triangles: def.max_triangles,
         tolerance: def.tolerance,
         uniform: def.uniform,
+        expected_triangles: None,
     };
     // A large component from a start point is marched in pieces on the pool's threads
     // (`pipeline::pieces`); not a surface with creases, whose pieces are its smooth forms.

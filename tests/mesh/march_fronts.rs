@@ -28,6 +28,7 @@ fn input(step: f64, front: Vec<DVec3>, bounds: Vec<Vec<DVec3>>) -> MarchInput {
         max_triangles: None,
         tolerance: None,
         uniform: false,
+        expected_triangles: None,
     }
 }
 

@@ -41,6 +41,9 @@ const MAX_STEPS_WITHOUT_TRIANGLE: u64 = 1_000_000;
 const GRADING_RETRIES: u32 = 3;
 /// At most this many floored points are looked at for a hidden sharp edge.
 const MAX_JUMP_CHECKS: u32 = 1024;
+/// The most triangles `MarchInput::expected_triangles` reserves room for (about 0.2 GB of
+/// vectors): a larger march grows its vectors beyond, as any march without the hint.
+const RESERVED_AT_MOST: u64 = 2_000_000;
 
 type HeapEntry = Reverse<(u64, u32, u32)>;
 
@@ -167,6 +170,9 @@ pub(super) fn run<'s>(
         pending: Vec::new(),
         scratch: Vec::new(),
     };
+    if let Some(t) = input.expected_triangles {
+        m.reserve(t.min(RESERVED_AT_MOST) as usize);
+    }
     // The given polygons' vertices come first and are the fixed points; a start point's
     // hexagon comes after them, so that its points are ordinary ones: merged or moved like
     // any other (fixed, a hexagon whose ring the local step graded unevenly kept its 17.7°
@@ -304,6 +310,25 @@ impl Marcher<'_> {
 
     /// Brings per-node and per-front arrays up to the rings' size; new nodes enter the hash
     /// (unless border points) and the pending list.
+    /// Room for `triangles` triangles and their points and front nodes (about half as many
+    /// each, on a closed surface), so that the vectors need not grow on the way.
+    fn reserve(&mut self, triangles: usize) {
+        let points = triangles / 2;
+        self.triangles.reserve(triangles);
+        self.h.reserve(points);
+        self.size.reserve(points);
+        self.pos.reserve(points);
+        self.normal.reserve(points);
+        self.t1.reserve(points);
+        self.t2.reserve(points);
+        self.border.reserve(points);
+        self.first_tri.reserve(points);
+        self.angle.reserve(points);
+        self.version.reserve(points);
+        self.checkable.reserve(points);
+        self.pending_flag.reserve(points);
+    }
+
     fn grow(&mut self) {
         let old = self.angle.len();
         let n = self.rings.node_count();

@@ -769,6 +769,7 @@ impl Search<'_> {
             max_triangles: Some(limit),
             tolerance: self.marching.tolerance,
             uniform: self.marching.uniform,
+            expected_triangles: None,
         }
     }
 

@@ -457,6 +457,7 @@ fn mesh_creased_once(
             max_triangles: limit,
             tolerance: marching.tolerance,
             uniform: marching.uniform,
+            expected_triangles: None,
         };
         // The face's forms whose zero sets hold its polygons, its first form first: where a
         // form is another's shadow over part of the face (a smooth boolean saturating onto

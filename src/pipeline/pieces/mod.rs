@@ -397,6 +397,7 @@ fn survey(
         max_triangles: Some(COARSE_LIMIT),
         tolerance: None,
         uniform: false,
+        expected_triangles: None,
     };
     let coarse_settings = MarchSettings {
         quality_angle: 0.0,
@@ -740,6 +741,9 @@ pub(super) fn slab_inputs(
                 max_triangles: Some(share.min(limit)),
                 tolerance: input.tolerance,
                 uniform: false,
+                // Half as many again as the area's estimate: a slab's vectors then grow
+                // at most once (the fine sphere's end slabs make 1.2 times the estimate).
+                expected_triangles: Some(((1.5 * estimate) as u64).min(share.min(limit))),
             }
         })
         .collect()
