@@ -308,8 +308,6 @@ impl Marcher<'_> {
         }
     }
 
-    /// Brings per-node and per-front arrays up to the rings' size; new nodes enter the hash
-    /// (unless border points) and the pending list.
     /// Room for `triangles` triangles and their points and front nodes (about half as many
     /// each, on a closed surface), so that the vectors need not grow on the way.
     fn reserve(&mut self, triangles: usize) {
@@ -329,6 +327,8 @@ impl Marcher<'_> {
         self.pending_flag.reserve(points);
     }
 
+    /// Brings per-node and per-front arrays up to the rings' size; new nodes enter the hash
+    /// (unless border points) and the pending list.
     fn grow(&mut self) {
         let old = self.angle.len();
         let n = self.rings.node_count();
