@@ -74,3 +74,34 @@ fn flat_ellipsoid_sheets_stay_apart() {
         },
     );
 }
+
+/// `expected_triangles` only reserves room: the torus marched with no hint, a hint far too
+/// small and one far too large gives the same mesh, bit for bit.
+#[test]
+fn the_expected_triangles_change_no_bit() {
+    let march = |expected: Option<u64>| {
+        let mut s = torus(1.0, 0.35);
+        let input = MarchInput {
+            expected_triangles: expected,
+            ..MarchInput::from_point(0.1, DVec3::new(1.0, 0.0, 0.5))
+        };
+        surfc::march::march(&mut s, &input, &surfc::march::MarchSettings::default())
+            .expect("the torus marches")
+    };
+    let plain = march(None);
+    assert!(plain.triangles.len() > 1000, "{}", plain.triangles.len());
+    for expected in [
+        Some(10),
+        Some(plain.triangles.len() as u64),
+        Some(10_000_000),
+    ] {
+        let hinted = march(expected);
+        assert_eq!(hinted.triangles, plain.triangles, "{expected:?}");
+        let bits = |m: &surfc::mesh::Mesh| -> Vec<[u64; 3]> {
+            (m.vertices.iter().chain(&m.normals))
+                .map(|v| v.to_array().map(f64::to_bits))
+                .collect()
+        };
+        assert_eq!(bits(&hinted), bits(&plain), "{expected:?}");
+    }
+}
