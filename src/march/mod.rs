@@ -80,8 +80,8 @@ pub struct MarchInput {
     /// About how many triangles the march will make, where the caller knows (a slab, from
     /// the survey's area): the marcher's per-point and per-node vectors are reserved for
     /// them at the start. No output depends on it. (Grown by doubling instead, each slab's
-    /// vectors were copied at every growth: about 1 % of the fine sphere's run, and a
-    /// quarter of its page faults.)
+    /// vectors were copied at every growth: about 1 % of the fine sphere's run; its page
+    /// faults on one thread 48.6 k without the hint, 43.4 k with it.)
     pub expected_triangles: Option<u64>,
 }
 
