@@ -164,6 +164,7 @@ fn l_bracket_is_right_at_three_steps() {
 /// Must-show 1: the L with a fillet of radius 0.1 by `smooth_union`, flat where the boxes are
 /// flush.
 #[test]
+#[ignore = "long run (8 s): `.ci/run` runs it (cargo test -- --ignored)"]
 fn filleted_l_bracket_is_flat_where_flush() {
     let dir = common::cli::scratch("cad-filleted-l");
     let part = part("filleted L-bracket", filleted_l_bracket(), 0.1, 2);
@@ -504,6 +505,7 @@ fn a_last_row_that_nearly_meets_a_rim_is_merged_into_it() {
 /// quarter about x, made 2 264 triangles and its twin 1 466 at 0.9696: the twin's widths were
 /// measured into the plane where two blocks touch (docs/creases.md, 3).
 #[test]
+#[ignore = "long run (11 s): `.ci/run` runs it (cargo test -- --ignored)"]
 fn a_turned_part_meshes_as_well_as_the_part() {
     let dir = common::cli::scratch("cad-turned");
     for case in [8, 17, 26, 35, 71] {

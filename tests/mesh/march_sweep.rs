@@ -484,7 +484,7 @@ fn slabs_below_the_mean_radius_ratio_are_not_taken() {
 /// faces, no crossings, the same Euler characteristic, boundary loops and components, the
 /// area within half a percent and the extent within a step of the whole march's. Shapes the
 /// whole march refuses in their box are counted, not compared. `SURFC_BOXED_SLABS=N` runs N
-/// shapes (default 8, three of them cut; `.ci/run` runs 100).
+/// shapes (default 8, three of them cut; `.ci/run` runs 60).
 #[test]
 fn boxed_slabs_mesh_what_the_whole_march_in_the_box_meshes() {
     let n: usize = env_number("SURFC_BOXED_SLABS").unwrap_or(8);
