@@ -83,11 +83,6 @@ fn same_bytes(file: &Path, dir: &Path, formats: &[&str], threads: &[&str]) -> us
     size
 }
 
-/// The gallery files left out of the default run (`SURFC_THREADS_ALL=1`, which `.ci/run`
-/// sets, meshes them too): they take most of its time, five runs each (the bracket, whose
-/// `offset` solves foot points at every evaluation, alone took 15 s of it).
-const SLOW: [&str; 3] = ["bracket", "intersecting_patches", "plate"];
-
 #[test]
 fn every_gallery_file_is_the_same_bytes_for_any_thread_count() {
     let all = std::env::var_os("SURFC_THREADS_ALL").is_some_and(|v| v != "0");
@@ -103,7 +98,7 @@ fn every_gallery_file_is_the_same_bytes_for_any_thread_count() {
         if !all
             && file
                 .file_stem()
-                .is_some_and(|s| SLOW.iter().any(|slow| s == *slow))
+                .is_some_and(|s| common::SLOW_GALLERY_FILES.iter().any(|slow| s == *slow))
         {
             continue;
         }

@@ -201,6 +201,13 @@ pub fn mesh_and_check(name: &str, surface: &mut Boxed, input: &MarchInput, expec
     mesh
 }
 
+/// The gallery files (`examples/`, by stem) that take nine tenths of its meshing: the
+/// bracket's `offset` and the patches' `dist` solve foot points at every evaluation, the plate
+/// traces 15 creases. The default run leaves them out of `mesh::gallery` and
+/// `cli::threads` (a fifth of the mesh tests' time); `SURFC_GALLERY_ALL=1` and
+/// `SURFC_THREADS_ALL=1`, which `.ci/run`'s long runs set, put them back.
+pub const SLOW_GALLERY_FILES: [&str; 3] = ["bracket", "intersecting_patches", "plate"];
+
 /// The mean radius ratio (2·r_in/r_circ) every march test's mesh reaches: issue 13's bar,
 /// docs/quality.md (the flat ellipsoid of `march_thin` reached it when the local step was graded
 /// towards fine places too, `Sizing::regrading_caps`).

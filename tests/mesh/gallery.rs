@@ -15,6 +15,8 @@ use surfc::mesh::quality::quality;
 use surfc::mesh::render::{RenderOptions, render, write_png};
 use surfc::pipeline::{Meshed, mesh_source, mesh_source_with};
 
+use crate::common::SLOW_GALLERY_FILES;
+
 /// What a mesh of the gallery must satisfy, beyond the checker's defaults.
 struct Row {
     file: &'static str,
@@ -267,38 +269,50 @@ pub struct Example {
 
 /// Every gallery file, meshed once per test process: the gallery's tests here and in
 /// `dist_gallery` share the meshes (`intersecting_patches` alone takes seconds), so each is
-/// made once, by whichever test asks first.
-pub fn gallery_meshes() -> &'static [Example] {
-    static MESHES: std::sync::OnceLock<Vec<Example>> = std::sync::OnceLock::new();
-    MESHES.get_or_init(|| {
-        examples()
-            .into_iter()
-            .map(|path| {
-                let source = std::fs::read_to_string(&path).unwrap();
-                let started = std::time::Instant::now();
-                let meshed = match mesh_source(&source) {
-                    Ok(m) => m,
-                    Err(diags) => panic!("{} does not mesh: {diags:#?}", path.display()),
-                };
-                let seconds = started.elapsed().as_secs_f64();
-                Example {
-                    path,
-                    source,
-                    meshed,
-                    seconds,
-                }
-            })
-            .collect()
-    })
+/// made once, by whichever test asks first. Each file is meshed when first asked for, so a
+/// test that asks for a few files does not wait for the others.
+pub fn gallery_meshes() -> impl Iterator<Item = &'static Example> {
+    cache().iter().map(|(path, cell)| meshed(path, cell))
 }
 
 /// The gallery file `path` (a path ending in its file name), meshed: see [`gallery_meshes`].
 pub fn gallery_mesh(path: &Path) -> &'static Example {
     let name = path.file_name();
-    gallery_meshes()
+    cache()
         .iter()
-        .find(|e| e.path.file_name() == name)
+        .find(|(p, _)| p.file_name() == name)
+        .map(|(p, cell)| meshed(p, cell))
         .unwrap_or_else(|| panic!("{} is not a gallery file", path.display()))
+}
+
+/// Every example file, with its mesh once made.
+fn cache() -> &'static [(PathBuf, std::sync::OnceLock<Example>)] {
+    static CACHE: std::sync::OnceLock<Vec<(PathBuf, std::sync::OnceLock<Example>)>> =
+        std::sync::OnceLock::new();
+    CACHE.get_or_init(|| {
+        examples()
+            .into_iter()
+            .map(|p| (p, std::sync::OnceLock::new()))
+            .collect()
+    })
+}
+
+/// The example at `path`, meshed into `cell` by the first caller.
+fn meshed<'a>(path: &Path, cell: &'a std::sync::OnceLock<Example>) -> &'a Example {
+    cell.get_or_init(|| {
+        let source = std::fs::read_to_string(path).unwrap();
+        let started = std::time::Instant::now();
+        let meshed = match mesh_source(&source) {
+            Ok(m) => m,
+            Err(diags) => panic!("{} does not mesh: {diags:#?}", path.display()),
+        };
+        Example {
+            path: path.to_path_buf(),
+            source,
+            meshed,
+            seconds: started.elapsed().as_secs_f64(),
+        }
+    })
 }
 
 /// Both engines mesh every example alike: the same vertices, normals and triangles, bit for
@@ -350,7 +364,14 @@ fn assert_passes(path: &Path, m: &Meshed) {
 
 #[test]
 fn gallery() {
+    let all = std::env::var_os("SURFC_GALLERY_ALL").is_some_and(|v| v != "0");
+    let mut checked = 0;
     insta::glob!("../../examples", "*.surf", |path| {
+        let stem = path.file_stem().unwrap_or_default();
+        if !all && SLOW_GALLERY_FILES.iter().any(|slow| stem == *slow) {
+            return;
+        }
+        checked += 1;
         let example = gallery_mesh(path);
         let source = &example.source;
         let mut report = String::new();
@@ -362,14 +383,17 @@ fn gallery() {
         let _ = write!(snapshot, "{source}\n---\n{report}");
         insta::assert_snapshot!(snapshot);
     });
+    // Thirteen files, three of them slow: a glob that found few would check little.
+    assert!(checked >= 10, "{checked} gallery files checked");
 }
 
 /// The pictures of docs/gallery.md: one per mesh block (one per file for the files whose
 /// meshes form a net), each `surfc render`'s PNG at its defaults but 640x480. The test fails
 /// when a committed picture or the page differs from what the examples give now;
-/// `SURFC_UPDATE_GALLERY=1 cargo test --release --test mesh gallery_pictures` regenerates
-/// them all.
+/// `SURFC_UPDATE_GALLERY=1 cargo test --release --test mesh gallery_pictures -- --ignored`
+/// regenerates them all. A long run: it meshes every file, the slow ones too.
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored gallery::)"]
 fn gallery_pictures() {
     let update = std::env::var_os("SURFC_UPDATE_GALLERY").is_some();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -448,7 +472,7 @@ fn gallery_pictures() {
     }
     assert!(
         stale.is_empty(),
-        "out of date with the examples (regenerate with `SURFC_UPDATE_GALLERY=1 cargo test --release --test mesh gallery_pictures`): {stale:#?}"
+        "out of date with the examples (regenerate with `SURFC_UPDATE_GALLERY=1 cargo test --release --test mesh gallery_pictures -- --ignored`): {stale:#?}"
     );
 }
 
@@ -459,6 +483,6 @@ The examples of the paper's Sect. 3 (docs/examples.md), meshed by `surfc mesh` a
 `surfc render` (640x480, view 30,25). Each picture is exactly what\n\
 `surfc render examples/FILE.surf -o PICTURE.png --size 640x480 [--only MESH]` draws. The page\n\
 and every picture are regenerated by\n\n\
-```\nSURFC_UPDATE_GALLERY=1 cargo test --release --test mesh gallery_pictures\n```\n\n\
+```\nSURFC_UPDATE_GALLERY=1 cargo test --release --test mesh gallery_pictures -- --ignored\n```\n\n\
 and the same test, run without the variable, fails when any of them is out of date. Times are\n\
 those of the run that made the page (release build, one core, all meshes of the file).\n\n";
