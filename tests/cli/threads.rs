@@ -1,5 +1,6 @@
 //! `surfc mesh --threads N` writes the same bytes for any N (issue 14, M3): every gallery
-//! file and a fine sphere, meshed with 1, 2 and 8 threads, in a text and a binary format.
+//! file and a fine sphere, meshed with 1, 2 and 8 threads, in a text and a binary format (the
+//! gallery's binary format with 1 and 8: `THREADS_BINARY`).
 //! The blocks of a file are meshed on the pool's threads, the crossing check and the report
 //! run beside the surface evaluations, and the OBJ text is formatted in chunks: any of them
 //! taking its results in thread order instead of file order shows here.
