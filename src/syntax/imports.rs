@@ -205,12 +205,9 @@ fn why(e: &std::io::Error) -> String {
 mod tests {
     use super::*;
 
-    /// A fresh directory for one test.
-    fn scratch(what: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("surfc-imports-{what}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("a scratch directory");
-        dir
+    /// A fresh directory for one test, removed when it ends.
+    fn scratch() -> tempfile::TempDir {
+        tempfile::tempdir().expect("a temporary directory")
     }
 
     fn codes(parsed: &Parsed) -> Vec<&'static str> {
@@ -219,7 +216,8 @@ mod tests {
 
     #[test]
     fn a_chain_past_the_limit_is_reported_once() {
-        let dir = scratch("deep");
+        let scratch = scratch();
+        let dir = scratch.path();
         let n = MAX_IMPORT_DEPTH + 1;
         for k in 0..n {
             std::fs::write(
@@ -246,7 +244,8 @@ mod tests {
 
     #[test]
     fn a_file_imported_twice_is_read_once_and_a_self_import_is_a_cycle() {
-        let dir = scratch("diamond");
+        let scratch = scratch();
+        let dir = scratch.path();
         std::fs::write(dir.join("units.surf"), "const unit = 1;\n").expect("write");
         std::fs::write(
             dir.join("a.surf"),

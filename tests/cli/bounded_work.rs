@@ -3,7 +3,7 @@
 //! chain of functions (E0603), `dist` nested too deep (E0604), a march that cannot end because
 //! the surface is unbounded or the front overlaps itself (E0601).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Duration;
 
 use crate::common;
@@ -15,7 +15,7 @@ fn surfc(args: &[&str], dir: &Path) -> (i32, String, Duration) {
 }
 
 /// A scratch directory holding `file` with `text`.
-fn scratch(name: &str, file: &str, text: &str) -> PathBuf {
+fn scratch(name: &str, file: &str, text: &str) -> common::cli::Scratch {
     let dir = common::cli::scratch(&format!("bounded-{name}"));
     std::fs::write(dir.join(file), text).unwrap();
     dir

@@ -81,9 +81,9 @@ fn import_from_a_subfolder_works_from_any_directory() {
     let main = main.to_str().expect("utf-8 path");
     // From the project, from its subfolder (a relative path upwards), from somewhere else.
     for (cwd, file) in [
-        (dir.clone(), "main.surf".to_string()),
+        (dir.to_path_buf(), "main.surf".to_string()),
         (dir.join("parts"), "../main.surf".to_string()),
-        (elsewhere.clone(), main.to_string()),
+        (elsewhere.to_path_buf(), main.to_string()),
     ] {
         let run = surfc(&["check", &file], &cwd);
         assert_eq!(run.code, 0, "check from {}: {}", cwd.display(), run.stderr);

@@ -85,7 +85,7 @@ fn a_symlink_stays_a_link_and_its_target_gets_the_mesh() {
     );
     assert!(is_obj_mesh(&fs::read(dir.join("store/real.obj")).unwrap()));
     // No temporary file left beside the link or the target.
-    for d in [dir.clone(), dir.join("store")] {
+    for d in [dir.to_path_buf(), dir.join("store")] {
         for entry in fs::read_dir(d).unwrap() {
             let name = entry.unwrap().file_name().to_string_lossy().into_owned();
             assert!(!name.ends_with(".tmp"), "left over: {name}");

@@ -296,9 +296,8 @@ fn a_transformed_patch_has_moved_points() {
 
 #[test]
 fn library_errors_render_into_the_imported_file() {
-    let dir = std::env::temp_dir().join(format!("surfc-csg-api-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("a scratch directory");
-    let part = dir.join("part.surf");
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let part = dir.path().join("part.surf");
     std::fs::write(&part, "// a part\nsurface part = spehre(1);\n").expect("write");
     let source = format!("import \"{}\";\nsurface s = part;\n", part.display());
     let errors = surfc::check(&source).expect_err("the part has a typo");

@@ -582,6 +582,7 @@ fn smooth_union_of_a_box_and_a_ball() {
 /// A filleted hole: `smooth_difference(box, cylinder)` (χ = 0), as raw formulas against the
 /// reference and as the language's primitives (`box`, `cylinder`), whose outer edges stay sharp.
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn smooth_difference_of_a_box_and_a_cylinder() {
     let half = DVec3::new(1.0, 1.0, 0.3);
     let tree = smooth(
@@ -604,6 +605,7 @@ fn smooth_difference_of_a_box_and_a_cylinder() {
 /// A plate with a hole and a boss joined to it by a fillet: `smooth_union` of a difference
 /// (sharp CSG inside a smooth boolean) and a cylinder.
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn plate_with_a_smoothly_joined_boss() {
     let plate = Tree::Difference(
         Box::new(placed(

@@ -124,16 +124,15 @@ fn is_special(_: &fs::FileType) -> bool {
 mod tests {
     use super::*;
 
-    fn scratch(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("surfc-target-{name}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        fs::create_dir_all(&dir).unwrap();
-        dir
+    /// A fresh directory for one test, removed when it ends.
+    fn scratch() -> tempfile::TempDir {
+        tempfile::tempdir().expect("a temporary directory")
     }
 
     #[test]
     fn links_are_followed_to_their_final_target() {
-        let dir = scratch("links");
+        let scratch = scratch();
+        let dir = scratch.path();
         let file = dir.join("real.obj");
         std::os::unix::fs::symlink("real.obj", dir.join("one")).unwrap();
         std::os::unix::fs::symlink(dir.join("one"), dir.join("two")).unwrap();
@@ -154,7 +153,8 @@ mod tests {
             resolve(Path::new("/dev/null")).unwrap(),
             Target::Direct("/dev/null".into())
         );
-        let dir = scratch("dir");
-        assert!(matches!(resolve(&dir), Err(WriteError::IsDirectory { .. })));
+        let scratch = scratch();
+        let dir = scratch.path();
+        assert!(matches!(resolve(dir), Err(WriteError::IsDirectory { .. })));
     }
 }
