@@ -621,6 +621,7 @@ mod tests {
     /// many, in one place or all over): the pairs found are always the whole search's, with
     /// groups and without.
     #[test]
+    #[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
     fn moved_corners_give_the_whole_searchs_pairs() {
         let mut r = uniform(0x5eed_cafe);
         let (base, tris) = torus(120, 45);

@@ -11,7 +11,7 @@
 //! can resolve the shape's smallest feature (always for the blobs, whose extent is known
 //! only from it).
 //!
-//! `SURFC_SWEEP=N` runs N shapes (default 20, ~5 s in the test profile; 200 for the full
+//! `SURFC_SWEEP=N` runs N shapes (default 12, ~3 s in the test profile; 200 for the full
 //! run); `SURFC_SWEEP_SEED=S` draws another set of shapes (default the fixed seed below);
 //! `SURFC_SWEEP_PIECES=N` marches each shape as `surfc mesh` does (`pipeline::pieces`), with
 //! a component above about N triangles cut into slabs (say 2000: most are cut);
@@ -156,7 +156,7 @@ const DEFAULT_SEED: u64 = 0x5EED_0010;
 
 #[test]
 fn generated_shapes_are_meshed_right_or_refused() {
-    let n: usize = env_number("SURFC_SWEEP").unwrap_or(20);
+    let n: usize = env_number("SURFC_SWEEP").unwrap_or(12);
     let seed = env_number("SURFC_SWEEP_SEED").unwrap_or(DEFAULT_SEED);
     // A xorshift state of 0 stays 0: every draw would be 0 and `direction` would never end.
     assert_ne!(

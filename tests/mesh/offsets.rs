@@ -162,6 +162,7 @@ fn voxel_volume(parts: &dyn Fn(DVec3) -> f64, d: f64, lo: DVec3, hi: DVec3, h: f
 /// upright): every vertex at the offset distance from the union to 1e-9, closed, χ = 2, ≥ 30°,
 /// and the volume within 1 % of a voxel count of the rounded solid.
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn solids_flush_on_a_face_and_rounded_mesh_right() {
     let b = DVec3::new;
     for (name, boxes, r, step) in [

@@ -95,6 +95,7 @@ fn mesh(source: &str, threads: usize, pool: bool, max_triangles: Option<u64>) ->
 }
 
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn pieces_on_the_pool_are_the_pieces_one_after_another() {
     for (k, source) in PARTS.iter().enumerate() {
         let alone = mesh(source, 1, false, None);
