@@ -192,12 +192,16 @@ fn random_cell(rng: &mut Rng, lo: DVec3, hi: DVec3, decades: f64) -> (DVec3, DVe
     (c, c + w)
 }
 
+/// Random boxes a gallery surface is bounded over by default (`INTERVAL_BOXES`; `.ci/run`
+/// runs 10 000, and a quarter of that for the partials).
+const DEFAULT_BOXES: usize = 4_000;
+
 #[test]
 fn every_gallery_surface_is_bounded_over_random_boxes() {
     let boxes: usize = std::env::var("INTERVAL_BOXES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(10_000);
+        .unwrap_or(DEFAULT_BOXES);
     let mut rng = Rng(0xD1B5_4A32_D192_ED03);
     for (name, mut surface, lo, hi) in gallery_surfaces() {
         let dist = surface.tape().children() > 0;
@@ -316,7 +320,7 @@ fn every_gallery_surface_bounds_its_gradient_over_random_boxes() {
     let boxes: usize = std::env::var("INTERVAL_BOXES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(10_000)
+        .unwrap_or(DEFAULT_BOXES)
         / 4;
     let mut rng = Rng(0x94D0_49BB_1331_11EB);
     for (name, mut surface, lo, hi) in gallery_surfaces() {

@@ -873,6 +873,7 @@ fn random_csg_trees_mesh_right_or_refuse() {
 /// booleans (the spine lifts them, `compile::spine`). The reference rounds the values the
 /// text computes (`Tree::rounded`). Default 1 case; the same variables as above.
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn random_smooth_csg_trees_mesh_right_or_refuse() {
     random_csg(true, 0x2545_F491_4F6C_DD1D, 1);
 }

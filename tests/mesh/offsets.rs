@@ -105,6 +105,7 @@ fn offset_of_union_meshes(
 /// a boss standing on a plate (a circle where the boss's side meets the plate's top, the
 /// boss's top edge and the plate's edges rounded).
 #[test]
+#[ignore = "long run: `.ci/run` runs it (cargo test -- --include-ignored)"]
 fn the_offset_of_a_union_is_the_union_of_the_offsets() {
     let source = "surface s = union(sphere(1), translate(sphere(0.7), (1.2, 0.3, 0)));\n\
                   surface o = offset(s, 0.2);\n\
