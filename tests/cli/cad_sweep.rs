@@ -699,7 +699,7 @@ fn kind_of(note: &str) -> String {
 
 /// Must-show 3: the generated sweep (module documentation).
 #[test]
-#[ignore = "long run: `.ci/run` runs it with SURFC_CAD_CASES=27 (cargo test -- --include-ignored cad_sweep::)"]
+#[ignore = "long run: `.ci/run` runs it with SURFC_CAD_CASES=18 (cargo test -- --include-ignored cad_sweep::)"]
 fn generated_parts_mesh_right_or_refuse_with_a_place() {
     let cases: usize = var("SURFC_CAD_CASES").unwrap_or(Class::ALL.len());
     let seed: u64 = var("SURFC_CAD_SEED").unwrap_or(SEED);

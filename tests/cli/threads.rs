@@ -86,7 +86,6 @@ fn same_bytes(file: &Path, dir: &Path, formats: &[&str], threads: &[&str]) -> us
 
 #[test]
 fn every_gallery_file_is_the_same_bytes_for_any_thread_count() {
-    let all = std::env::var_os("SURFC_THREADS_ALL").is_some_and(|v| v != "0");
     let dir = scratch("threads-gallery");
     let mut files: Vec<_> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/examples"))
         .expect("the gallery")
@@ -96,11 +95,7 @@ fn every_gallery_file_is_the_same_bytes_for_any_thread_count() {
     files.sort();
     let mut meshed = 0;
     for file in &files {
-        if !all
-            && file
-                .file_stem()
-                .is_some_and(|s| common::SLOW_GALLERY_FILES.iter().any(|slow| s == *slow))
-        {
+        if common::skipped_gallery_file(file, "SURFC_THREADS_ALL") {
             continue;
         }
         assert!(same_bytes(file, &dir, &["obj"], &THREADS) > 0);

@@ -62,39 +62,41 @@ pub fn surfc_with_input(args: &[&str], dir: &Path, stdin: &[u8]) -> Run {
     }
 }
 
-/// A fresh, empty directory for one test (`what` and the process id name it; tests of one
-/// binary share the process, so `what` must be unique among them), removed when the test
+/// A fresh, empty directory for one test (`what` begins its name), removed when the test
 /// ends; kept when it fails, for its files to be looked at (its path is printed then).
 pub fn scratch(what: &str) -> Scratch {
-    let dir = std::env::temp_dir().join(format!("surfc-{what}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("a scratch directory");
+    let dir = tempfile::Builder::new()
+        .prefix(&format!("surfc-{what}-"))
+        .tempdir()
+        .expect("a scratch directory");
     Scratch(dir)
 }
 
-/// A test's scratch directory (`scratch`): a path, removed on drop unless the test panics.
-pub struct Scratch(PathBuf);
+/// A test's scratch directory (`scratch`): `tempfile`'s, kept where the test panics.
+pub struct Scratch(tempfile::TempDir);
 
 impl std::ops::Deref for Scratch {
     type Target = Path;
 
     fn deref(&self) -> &Path {
-        &self.0
+        self.0.path()
     }
 }
 
 impl AsRef<Path> for Scratch {
     fn as_ref(&self) -> &Path {
-        &self.0
+        self.0.path()
     }
 }
 
 impl Drop for Scratch {
     fn drop(&mut self) {
         if std::thread::panicking() {
-            eprintln!("the failed test's files are kept in {}", self.0.display());
-        } else {
-            let _ = std::fs::remove_dir_all(&self.0);
+            self.0.disable_cleanup(true);
+            eprintln!(
+                "the failed test's files are kept in {}",
+                self.0.path().display()
+            );
         }
     }
 }

@@ -208,6 +208,15 @@ pub fn mesh_and_check(name: &str, surface: &mut Boxed, input: &MarchInput, expec
 /// `SURFC_THREADS_ALL=1`, which `.ci/run`'s long runs set, put them back.
 pub const SLOW_GALLERY_FILES: [&str; 3] = ["bracket", "intersecting_patches", "plate"];
 
+/// Whether the gallery file `path` is left out of the default run: one of
+/// `SLOW_GALLERY_FILES`, unless the variable `all` (`SURFC_GALLERY_ALL`, `SURFC_THREADS_ALL`)
+/// is set to anything but `0`.
+pub fn skipped_gallery_file(path: &std::path::Path, all: &str) -> bool {
+    let everything = std::env::var_os(all).is_some_and(|v| v != "0");
+    let stem = path.file_stem().unwrap_or_default();
+    !everything && SLOW_GALLERY_FILES.iter().any(|slow| stem == *slow)
+}
+
 /// The mean radius ratio (2·r_in/r_circ) every march test's mesh reaches: issue 13's bar,
 /// docs/quality.md (the flat ellipsoid of `march_thin` reached it when the local step was graded
 /// towards fine places too, `Sizing::regrading_caps`).

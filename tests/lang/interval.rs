@@ -192,16 +192,18 @@ fn random_cell(rng: &mut Rng, lo: DVec3, hi: DVec3, decades: f64) -> (DVec3, DVe
     (c, c + w)
 }
 
-/// Random boxes a gallery surface is bounded over by default (`INTERVAL_BOXES`; `.ci/run`
-/// runs 10 000, and a quarter of that for the partials).
-const DEFAULT_BOXES: usize = 4_000;
+/// The random boxes each gallery surface is bounded over: `INTERVAL_BOXES`, by default 4000
+/// (`.ci/run` runs 10 000; the partials' test a quarter of that).
+fn interval_boxes() -> usize {
+    std::env::var("INTERVAL_BOXES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(4_000)
+}
 
 #[test]
 fn every_gallery_surface_is_bounded_over_random_boxes() {
-    let boxes: usize = std::env::var("INTERVAL_BOXES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(DEFAULT_BOXES);
+    let boxes: usize = interval_boxes();
     let mut rng = Rng(0xD1B5_4A32_D192_ED03);
     for (name, mut surface, lo, hi) in gallery_surfaces() {
         let dist = surface.tape().children() > 0;
@@ -317,11 +319,7 @@ fn every_opcode_contains_its_sampled_derivatives() {
 /// points, and where f is defined on the whole box the mean-value form contains f there.
 #[test]
 fn every_gallery_surface_bounds_its_gradient_over_random_boxes() {
-    let boxes: usize = std::env::var("INTERVAL_BOXES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(DEFAULT_BOXES)
-        / 4;
+    let boxes: usize = interval_boxes() / 4;
     let mut rng = Rng(0x94D0_49BB_1331_11EB);
     for (name, mut surface, lo, hi) in gallery_surfaces() {
         let dist = surface.tape().children() > 0;

@@ -15,7 +15,7 @@ use surfc::mesh::quality::quality;
 use surfc::mesh::render::{RenderOptions, render, write_png};
 use surfc::pipeline::{Meshed, mesh_source, mesh_source_with};
 
-use crate::common::SLOW_GALLERY_FILES;
+use crate::common::skipped_gallery_file;
 
 /// What a mesh of the gallery must satisfy, beyond the checker's defaults.
 struct Row {
@@ -364,11 +364,9 @@ fn assert_passes(path: &Path, m: &Meshed) {
 
 #[test]
 fn gallery() {
-    let all = std::env::var_os("SURFC_GALLERY_ALL").is_some_and(|v| v != "0");
     let mut checked = 0;
     insta::glob!("../../examples", "*.surf", |path| {
-        let stem = path.file_stem().unwrap_or_default();
-        if !all && SLOW_GALLERY_FILES.iter().any(|slow| stem == *slow) {
+        if skipped_gallery_file(path, "SURFC_GALLERY_ALL") {
             return;
         }
         checked += 1;
