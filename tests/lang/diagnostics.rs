@@ -37,7 +37,7 @@ fn diagnose(path: &Path, name: &str) -> (SourceMap, Vec<Diagnostic>) {
 
 #[test]
 fn fixtures_render_their_diagnostics() {
-    insta::glob!("../fixtures/errors", "*.surf", |path| {
+    crate::common::each_file("tests/fixtures/errors", "surf", |path| {
         let name = path
             .file_name()
             .map_or(String::new(), |n| n.to_string_lossy().into_owned());
@@ -81,7 +81,7 @@ fn mesh_diagnose(path: &Path, name: &str) -> (Vec<Diagnostic>, String) {
 /// with the source.
 #[test]
 fn mesh_fixtures_render_their_diagnostics() {
-    insta::glob!("../fixtures/errors/mesh", "*.surf", |path| {
+    crate::common::each_file("tests/fixtures/errors/mesh", "surf", |path| {
         let name = path
             .file_name()
             .map_or(String::new(), |n| n.to_string_lossy().into_owned());

@@ -15,7 +15,7 @@ use surfc::mesh::quality::quality;
 use surfc::mesh::render::{RenderOptions, render, write_png};
 use surfc::pipeline::{Meshed, mesh_source, mesh_source_with};
 
-use crate::common::skipped_gallery_file;
+use crate::common::{each_file, skipped_gallery_file};
 
 /// What a mesh of the gallery must satisfy, beyond the checker's defaults.
 struct Row {
@@ -365,7 +365,7 @@ fn assert_passes(path: &Path, m: &Meshed) {
 #[test]
 fn gallery() {
     let mut checked = 0;
-    insta::glob!("../../examples", "*.surf", |path| {
+    each_file("examples", "surf", |path| {
         if skipped_gallery_file(path, "SURFC_GALLERY_ALL") {
             return;
         }
