@@ -222,8 +222,8 @@ pub fn skipped_gallery_file(path: &std::path::Path, all: &str) -> bool {
 /// as the snapshot's input file and its name as the snapshot's suffix, so that its snapshots
 /// are `<test>@<file name>.snap`. Every file is checked, and the test fails after the last
 /// one, naming each file that failed. (insta's `glob` feature does the same through a glob
-/// matcher and its regex engine: a fifth of a minute of a fresh clone's build for three
-/// folder listings.)
+/// matcher and its regex engine: about 15 s of a fresh clone's CPU for three folder
+/// listings.)
 pub fn each_file(dir: &str, ext: &str, mut check: impl FnMut(&std::path::Path)) {
     let folder = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(dir);
     let folder = folder.canonicalize().unwrap_or(folder);
