@@ -245,10 +245,7 @@ fn product_scene(rng: &mut Rng) -> (String, usize, i64) {
 /// (default 6).
 #[test]
 fn components_on_the_pool_are_the_search_one_after_another() {
-    let cases: usize = std::env::var("THREADS_SCENES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(6);
+    let cases: usize = common::env_number("THREADS_SCENES").unwrap_or(6);
     let mut rng = Rng(0x7EAD_5EED_2026_1130);
     let bits = |m: &Mesh| -> Vec<u64> {
         m.vertices

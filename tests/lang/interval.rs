@@ -195,10 +195,7 @@ fn random_cell(rng: &mut Rng, lo: DVec3, hi: DVec3, decades: f64) -> (DVec3, DVe
 /// The random boxes each gallery surface is bounded over: `INTERVAL_BOXES`, by default 4000
 /// (`.ci/run` runs 10 000; the partials' test a quarter of that).
 fn interval_boxes() -> usize {
-    std::env::var("INTERVAL_BOXES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(4_000)
+    crate::common::env_number("INTERVAL_BOXES").unwrap_or(4_000)
 }
 
 #[test]

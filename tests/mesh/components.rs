@@ -237,14 +237,8 @@ fn scene(rng: &mut Rng) -> Scene {
 /// core; `.ci/run` runs 120), `COMPONENT_SEED` the generator's seed.
 #[test]
 fn random_disjoint_shapes_are_all_found() {
-    let cases: usize = std::env::var("COMPONENT_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(5);
-    let seed: u64 = std::env::var("COMPONENT_SEED")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(0x5EED_C0DE_2026_0011);
+    let cases: usize = common::env_number("COMPONENT_CASES").unwrap_or(5);
+    let seed: u64 = common::env_number("COMPONENT_SEED").unwrap_or(0x5EED_C0DE_2026_0011);
     let mut rng = Rng(seed);
     let mut triangles = 0;
     for case in 0..cases {
@@ -508,10 +502,7 @@ fn thin_scene(rng: &mut Rng) -> (Scene, f64) {
 /// runs 24).
 #[test]
 fn random_scenes_with_features_smaller_than_the_step() {
-    let cases: usize = std::env::var("THIN_SCENES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(4);
+    let cases: usize = common::env_number("THIN_SCENES").unwrap_or(4);
     let mut rng = Rng(0x7417_C0DE_2026_1130);
     let (mut right, mut refused) = (0, 0);
     for case in 0..cases {

@@ -881,15 +881,9 @@ fn random_smooth_csg_trees_mesh_right_or_refuse() {
 /// The random CSG property test: `default_cases` trees (or `SURFC_CSG_CASES`) drawn from
 /// `seed`, with smooth booleans if `smooth`.
 fn random_csg(smooth: bool, seed: u64, default_cases: usize) {
-    let cases: usize = std::env::var("SURFC_CSG_CASES")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(default_cases);
+    let cases: usize = common::env_number("SURFC_CSG_CASES").unwrap_or(default_cases);
     let started = std::time::Instant::now();
-    let step: f64 = std::env::var("SURFC_CSG_STEP")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0.1);
+    let step: f64 = common::env_number("SURFC_CSG_STEP").unwrap_or(0.1);
     let (lo, hi) = (DVec3::splat(-2.5), DVec3::splat(2.5));
     // The reference's first grid; its creases are rounded to two voxels.
     let voxel = 0.025;

@@ -24,10 +24,10 @@
 
 use crate::common;
 
-use common::MEAN_RADIUS_RATIO;
 use common::rng::Rng;
 use common::thin::{Shape, blobs, dumbbell, plate, superquadric, torus};
 use common::voxel::solid_count;
+use common::{MEAN_RADIUS_RATIO, env_number};
 use glam::{DMat3, DVec3};
 use surfc::march::{MarchInput, MarchSettings, march_verified};
 use surfc::mesh::NamedMesh;
@@ -144,11 +144,6 @@ fn aimed_settings() -> MarchSettings {
         quality_ratio: env_number("SURFC_SWEEP_RATIO").unwrap_or(defaults.quality_ratio),
         ..defaults
     }
-}
-
-/// The number in the environment variable `name`, if it is set and one.
-fn env_number<T: std::str::FromStr>(name: &str) -> Option<T> {
-    std::env::var(name).ok()?.parse().ok()
 }
 
 /// The shapes of the default run: with it every shape has an independent extent.
