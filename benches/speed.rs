@@ -8,8 +8,12 @@
 //! the grid); then criterion measures each part on its own; and after the last case a table
 //! of all of them:
 //! - `fsn`: fast-surface-nets sampling the formula (f32, native Rust) on a grid over the box
-//!   and extracting its mesh; the grid spacing is chosen so that its mean edge length equals
-//!   surfc's (calibrated by one or two corrections, both printed);
+//!   and extracting its mesh, in fresh memory (cold); the grid spacing is chosen so that its
+//!   mean edge length equals surfc's (calibrated by one or two corrections, both printed);
+//! - `fsn_warm`: the same in memory it used before (its grid and buffer kept from an untimed
+//!   run). On the fine sphere its two grid-sized arrays are about 460 MB, whose first touch
+//!   costs this machine 0.2 to 0.8 s as the host's page faults go: the cold time moves by
+//!   that, the warm one does not (docs/speed.md, *The reference's memory*);
 //! - `march`: surfc's verified march alone (compiled surface, native code), for the cases with
 //!   a start point and no creases (`march::march` does not trace creases: not for
 //!   `cad_plate`);
@@ -170,14 +174,39 @@ fn cases() -> Vec<Case> {
     ]
 }
 
-/// fast-surface-nets over `grid_box` at `spacing`: samples, extracts; the triangle count and
-/// the mean edge length (model units).
-fn fsn(f: fn(f32, f32, f32) -> f32, (lo, hi): (DVec3, DVec3), spacing: f64) -> (usize, f64) {
+/// fast-surface-nets' memory: the grid of samples and the output buffer (whose table from
+/// grid cells to vertices is as large as the grid).
+#[derive(Default)]
+struct Grid {
+    sdf: Vec<f32>,
+    buffer: SurfaceNetsBuffer,
+}
+
+/// fast-surface-nets over `grid_box` at `spacing` in fresh memory (`cold`: what one call
+/// costs, the first touch of the grid's and the buffer's pages included); the triangle
+/// count and the mean edge length (model units).
+fn fsn(f: fn(f32, f32, f32) -> f32, grid_box: (DVec3, DVec3), spacing: f64) -> (usize, f64) {
+    fsn_in(f, grid_box, spacing, &mut Grid::default())
+}
+
+/// fast-surface-nets over `grid_box` at `spacing` in `grid`'s memory: samples, extracts. With
+/// a `grid` used before at the same spacing (`warm`) nothing is allocated or touched for the
+/// first time, as when a caller meshes again with the same buffers.
+fn fsn_in(
+    f: fn(f32, f32, f32) -> f32,
+    (lo, hi): (DVec3, DVec3),
+    spacing: f64,
+    grid: &mut Grid,
+) -> (usize, f64) {
     // One sample beyond the box on each side, so that the surface inside it is all meshed.
     let n = ((hi - lo) / spacing).ceil().as_uvec3() + glam::UVec3::splat(3);
     let shape = RuntimeShape::<u32, 3>::new([n.x, n.y, n.z]);
     let origin = lo - DVec3::splat(spacing);
-    let mut sdf = vec![0f32; shape.usize()];
+    let Grid { sdf, buffer } = grid;
+    if sdf.len() != shape.usize() {
+        // Zeroed pages from the system, first touched by the sampling.
+        *sdf = vec![0f32; shape.usize()];
+    }
     let s = spacing as f32;
     let (ox, oy, oz) = (origin.x as f32, origin.y as f32, origin.z as f32);
     let mut i = 0;
@@ -191,14 +220,7 @@ fn fsn(f: fn(f32, f32, f32) -> f32, (lo, hi): (DVec3, DVec3), spacing: f64) -> (
             }
         }
     }
-    let mut buffer = SurfaceNetsBuffer::default();
-    surface_nets(
-        &sdf,
-        &shape,
-        [0; 3],
-        [n.x - 1, n.y - 1, n.z - 1],
-        &mut buffer,
-    );
+    surface_nets(sdf, &shape, [0; 3], [n.x - 1, n.y - 1, n.z - 1], buffer);
     let (mut sum, mut count) = (0.0f64, 0usize);
     for t in buffer.indices.chunks_exact(3) {
         for k in 0..3 {
@@ -247,9 +269,10 @@ struct Row {
     name: &'static str,
     triangles: usize,
     vertices: usize,
-    /// Medians of fast-surface-nets, march (None where it does not apply), mesh on one and
-    /// on two threads, seconds.
+    /// Medians of fast-surface-nets cold and warm, march (None where it does not apply), mesh
+    /// on one and on two threads, seconds.
     fsn: f64,
+    fsn_warm: f64,
     march: Option<f64>,
     mesh_1t: f64,
     mesh_2t: f64,
@@ -305,17 +328,25 @@ fn bench_case(c: &mut Criterion, case: &Case, rounds: usize) -> Row {
         (fsn_triangles, fsn_edge) = fsn(case.f, case.grid_box, spacing);
     }
 
+    // fast-surface-nets warm: its memory allocated and touched by one untimed run.
+    let warm = std::cell::RefCell::new(Grid::default());
+    let fsn_warm = || fsn_in(case.f, case.grid_box, spacing, &mut warm.borrow_mut());
+    fsn_warm();
+
     // Interleaved medians and their ratios.
     let time = |f: &dyn Fn()| {
         let t = Instant::now();
         f();
         t.elapsed().as_secs_f64()
     };
-    let mut runs: Vec<[f64; 4]> = Vec::new();
+    let mut runs: Vec<[f64; 5]> = Vec::new();
     for _ in 0..rounds {
         runs.push([
             time(&|| {
                 black_box(fsn(case.f, case.grid_box, spacing));
+            }),
+            time(&|| {
+                black_box(fsn_warm());
             }),
             case.start.map_or(f64::NAN, |start| {
                 time(&|| {
@@ -335,12 +366,13 @@ fn bench_case(c: &mut Criterion, case: &Case, rounds: usize) -> Row {
         t.sort_by(f64::total_cmp);
         t[t.len() / 2]
     };
-    let [f, m, m1, m2] = [0, 1, 2, 3].map(median);
+    let [f, fw, m, m1, m2] = [0, 1, 2, 3, 4].map(median);
     let row = Row {
         name: case.name,
         triangles: surfc_triangles,
         vertices: surfc_vertices,
         fsn: f,
+        fsn_warm: fw,
         march: case.start.map(|_| m),
         mesh_1t: m1,
         mesh_2t: m2,
@@ -354,9 +386,10 @@ fn bench_case(c: &mut Criterion, case: &Case, rounds: usize) -> Row {
         })
     };
     eprintln!(
-        "speed {}: fast-surface-nets {:.3} s ({} triangles, mean edge {:.5}, spacing {:.5}); surfc march {}, mesh 1 thread {:.3} s, 2 threads {:.3} s ({} triangles, mean edge {:.5}); ratio to fast-surface-nets: march {}, mesh 1 thread {:.2}, 2 threads {:.2} (medians of {} interleaved rounds)",
+        "speed {}: fast-surface-nets {:.3} s cold, {:.3} s warm ({} triangles, mean edge {:.5}, spacing {:.5}); surfc march {}, mesh 1 thread {:.3} s, 2 threads {:.3} s ({} triangles, mean edge {:.5}); ratio to fast-surface-nets cold: march {}, mesh 1 thread {:.2}, 2 threads {:.2}; warm: mesh 1 thread {:.2}, 2 threads {:.2} (medians of {} interleaved rounds)",
         case.name,
         f,
+        fw,
         fsn_triangles,
         fsn_edge,
         spacing,
@@ -368,6 +401,8 @@ fn bench_case(c: &mut Criterion, case: &Case, rounds: usize) -> Row {
         march_text(row.march.map(|m| m / f), 2, ""),
         m1 / f,
         m2 / f,
+        m1 / fw,
+        m2 / fw,
         rounds
     );
     eprintln!(
@@ -388,6 +423,7 @@ fn bench_case(c: &mut Criterion, case: &Case, rounds: usize) -> Row {
     g.bench_function("fsn", |b| {
         b.iter(|| black_box(fsn(case.f, case.grid_box, spacing)))
     });
+    g.bench_function("fsn_warm", |b| b.iter(|| black_box(fsn_warm())));
     if let Some(start) = case.start {
         g.bench_function("march", |b| b.iter(|| black_box(run_march(start))));
     }
@@ -403,16 +439,16 @@ fn print_table(rows: &[Row], rounds: usize) {
         return;
     }
     eprintln!(
-        "speed: medians of {rounds} interleaved rounds; mesh 1 thread, its evaluations a vertex, and ratios to fast-surface-nets\n\
-         | case | triangles | s (1 thread) | ns/vertex | point evals/vertex | interval evals/vertex | fast-surface-nets s | ratio march / 1 thread / 2 threads |\n\
-         |---|---|---|---|---|---|---|---|"
+        "speed: medians of {rounds} interleaved rounds; mesh 1 thread, its evaluations a vertex, and ratios to fast-surface-nets cold (fresh memory) and warm (its memory reused)\n\
+         | case | triangles | s (1 thread) | ns/vertex | point evals/vertex | interval evals/vertex | fast-surface-nets s cold / warm | ratio to cold: march / 1 thread / 2 threads | ratio to warm: 1 thread / 2 threads |\n\
+         |---|---|---|---|---|---|---|---|---|"
     );
     for r in rows {
         let march = r
             .march
             .map_or("—".to_string(), |m| format!("{:.2}", m / r.fsn));
         eprintln!(
-            "| {} | {} | {:.3} | {:.0} | {:.2} | {:.3} | {:.3} | {} / {:.2} / {:.2} |",
+            "| {} | {} | {:.3} | {:.0} | {:.2} | {:.3} | {:.3} / {:.3} | {} / {:.2} / {:.2} | {:.2} / {:.2} |",
             r.name,
             r.triangles,
             r.mesh_1t,
@@ -420,9 +456,12 @@ fn print_table(rows: &[Row], rounds: usize) {
             r.per_vertex(r.values + r.value_gradients),
             r.per_vertex(r.intervals),
             r.fsn,
+            r.fsn_warm,
             march,
             r.mesh_1t / r.fsn,
-            r.mesh_2t / r.fsn
+            r.mesh_2t / r.fsn,
+            r.mesh_1t / r.fsn_warm,
+            r.mesh_2t / r.fsn_warm
         );
     }
 }
