@@ -59,10 +59,6 @@ const SHARP: f64 = 35.0;
 /// The mean radius ratio every right mesh reaches (docs/quality.md).
 const RATIO: f64 = 0.97;
 
-fn var<T: std::str::FromStr>(name: &str) -> Option<T> {
-    std::env::var(name).ok().and_then(|s| s.trim().parse().ok())
-}
-
 /// Whether `SURFC_CAD_STRICT=1`: the bars the crease rework is to meet.
 pub fn strict() -> bool {
     std::env::var("SURFC_CAD_STRICT").is_ok_and(|v| v == "1")
@@ -77,7 +73,7 @@ fn binary() -> PathBuf {
 
 /// The time limit of one run (`SURFC_CAD_TIMEOUT` seconds, default 60).
 fn limit() -> Duration {
-    Duration::from_secs_f64(var("SURFC_CAD_TIMEOUT").unwrap_or(60.0))
+    Duration::from_secs_f64(common::env_number("SURFC_CAD_TIMEOUT").unwrap_or(60.0))
 }
 
 /// What one run of the binary gave.
@@ -701,9 +697,9 @@ fn kind_of(note: &str) -> String {
 #[test]
 #[ignore = "long run: `.ci/run` runs it with SURFC_CAD_CASES=18 (cargo test -- --include-ignored cad_sweep::)"]
 fn generated_parts_mesh_right_or_refuse_with_a_place() {
-    let cases: usize = var("SURFC_CAD_CASES").unwrap_or(Class::ALL.len());
-    let seed: u64 = var("SURFC_CAD_SEED").unwrap_or(SEED);
-    let only: Option<usize> = var("SURFC_CAD_ONLY");
+    let cases: usize = common::env_number("SURFC_CAD_CASES").unwrap_or(Class::ALL.len());
+    let seed: u64 = common::env_number("SURFC_CAD_SEED").unwrap_or(SEED);
+    let only: Option<usize> = common::env_number("SURFC_CAD_ONLY");
     let class: Option<Class> = std::env::var("SURFC_CAD_CLASS")
         .ok()
         .map(|name| Class::from_name(&name).unwrap_or_else(|| panic!("no class {name:?}")));

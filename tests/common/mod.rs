@@ -208,10 +208,10 @@ pub fn mesh_and_check(name: &str, surface: &mut Boxed, input: &MarchInput, expec
 /// `SURFC_THREADS_ALL=1`, which `.ci/run`'s long runs set, put them back.
 pub const SLOW_GALLERY_FILES: [&str; 3] = ["bracket", "intersecting_patches", "plate"];
 
-/// The number in the environment variable `name`, if it is set and one: the sizes and seeds
-/// of the sweeps (tests/README.md, *The long runs*).
+/// The number in the environment variable `name` (spaces around it allowed), if it is set and
+/// one: the sizes, seeds and cases of the sweeps (tests/README.md, *The long runs*).
 pub fn env_number<T: std::str::FromStr>(name: &str) -> Option<T> {
-    std::env::var(name).ok()?.parse().ok()
+    std::env::var(name).ok()?.trim().parse().ok()
 }
 
 /// Whether the gallery file `path` is left out of the default run: one of

@@ -905,9 +905,7 @@ fn random_csg(smooth: bool, seed: u64, default_cases: usize) {
     let (mut drawn, mut tangent, mut flat, mut crowded, mut outside) = (0, 0, 0, 0, 0);
     let mut rng = Rng(seed);
     // One case alone (the others drawn, not meshed), to look at it.
-    let only: Option<usize> = std::env::var("SURFC_CSG_ONLY")
-        .ok()
-        .and_then(|s| s.parse().ok());
+    let only: Option<usize> = common::env_number("SURFC_CSG_ONLY");
     let mut case = 0;
     while case < cases {
         drawn += 1;
