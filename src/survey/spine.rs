@@ -92,14 +92,22 @@ impl Form {
     }
 
     fn key(&self) -> Vec<u64> {
-        // +0 and −0 are one coefficient.
-        let mut key: Vec<u64> = self
-            .terms
-            .iter()
-            .flat_map(|&(k, c)| [k as u64, (c + 0.0).to_bits()])
-            .collect();
-        key.push((self.constant + 0.0).to_bits());
+        let mut key = Vec::new();
+        self.key_into(&mut key);
         key
+    }
+
+    /// `key` into `key` (cleared first): a lookup's buffer, kept rather than allocated for
+    /// each of the many forms looked up.
+    fn key_into(&self, key: &mut Vec<u64>) {
+        // +0 and −0 are one coefficient.
+        key.clear();
+        key.extend(
+            self.terms
+                .iter()
+                .flat_map(|&(k, c)| [k as u64, (c + 0.0).to_bits()]),
+        );
+        key.push((self.constant + 0.0).to_bits());
     }
 
     /// s·self.
@@ -271,31 +279,27 @@ impl Spine {
 
     /// f from the branch values and gradients (the gradient of the chosen operands).
     pub fn value_gradient(&self, b: &[ValueGrad]) -> ValueGrad {
-        self.value_gradient_in(b, &mut Vec::new())
-    }
-
-    /// `value_gradient` with the terms' values in `scratch` (a point query's buffer, kept
-    /// between queries rather than allocated for each).
-    fn value_gradient_in(&self, b: &[ValueGrad], scratch: &mut Vec<ValueGrad>) -> ValueGrad {
-        self.term_values_in(b, scratch);
-        scratch[scratch.len() - 1]
+        let v = self.term_values(b);
+        v[v.len() - 1]
     }
 
     /// Every term's value and gradient from the branch values and gradients.
     fn term_values(&self, b: &[ValueGrad]) -> Vec<ValueGrad> {
         let mut v = Vec::new();
-        self.term_values_in(b, &mut v);
+        self.term_values_with(|k| b[k], &mut v);
         v
     }
 
-    /// `term_values` into `v` (cleared first).
-    fn term_values_in(&self, b: &[ValueGrad], v: &mut Vec<ValueGrad>) {
+    /// `term_values` into `v` (cleared first), with branch k's value and gradient from
+    /// `branch(k)`, asked in the order of the spine's terms (a point query evaluates each
+    /// branch as the walk reaches it, into no buffer of branch values).
+    fn term_values_with(&self, mut branch: impl FnMut(usize) -> ValueGrad, v: &mut Vec<ValueGrad>) {
         v.clear();
         v.reserve(self.terms.len());
         let vg = |value: f64, gradient: DVec3| ValueGrad { value, gradient };
         for t in &self.terms {
             let x = match *t {
-                Term::Branch(k) => b[k],
+                Term::Branch(k) => branch(k),
                 Term::Const(c) => vg(c, DVec3::ZERO),
                 Term::Neg(a) => vg(-v[a].value, -v[a].gradient),
                 Term::Add(a, c) => vg(v[a].value + v[c].value, v[a].gradient + v[c].gradient),
@@ -716,6 +720,8 @@ pub struct Creased {
     /// net's many points.
     branch_values: Vec<ValueGrad>,
     term_scratch: Vec<ValueGrad>,
+    /// A form's key for the lookups in `index` (`id`, `active`).
+    key_scratch: Vec<u64>,
 }
 
 /// The most forms (smooth pieces) of a spine that chooses by selectors (a lifted smooth
@@ -794,6 +800,7 @@ impl Creased {
             last_local: Default::default(),
             branch_values: Vec::new(),
             term_scratch: Vec::new(),
+            key_scratch: Vec::new(),
         })
     }
 
@@ -1011,13 +1018,13 @@ impl Creased {
 
     /// The id of a form, registered if new.
     fn id(&mut self, form: &Form) -> usize {
-        let key = form.key();
-        if let Some(&i) = self.index.get(&key) {
+        form.key_into(&mut self.key_scratch);
+        if let Some(&i) = self.index.get(self.key_scratch.as_slice()) {
             return i;
         }
         let i = self.forms.len();
         self.forms.push(form.clone());
-        self.index.insert(key, i);
+        self.index.insert(self.key_scratch.clone(), i);
         self.parent.push(i);
         i
     }
@@ -1087,10 +1094,12 @@ impl Creased {
     /// Value and gradient of f at p, through the spine.
     pub fn whole(&mut self, p: DVec3) -> ValueGrad {
         let taken = self.take_spine_at(p);
-        self.branches_of(&taken.1, p);
-        let out = taken
+        let mut terms = std::mem::take(&mut self.term_scratch);
+        taken
             .1
-            .value_gradient_in(&self.branch_values, &mut self.term_scratch);
+            .term_values_with(|k| self.branch_at(k, p), &mut terms);
+        let out = terms[terms.len() - 1];
+        self.term_scratch = terms;
         self.give_back(taken);
         out
     }
@@ -1105,9 +1114,13 @@ impl Creased {
             return Vec::new();
         };
         let mut out: Vec<usize> = if self.enumerated {
+            let (index, key) = (&self.index, &mut self.key_scratch);
             cands
                 .iter()
-                .filter_map(|c| self.index.get(&c.form.key()).copied())
+                .filter_map(|c| {
+                    c.form.key_into(key);
+                    index.get(key.as_slice()).copied()
+                })
                 .collect()
         } else {
             cands.iter().map(|c| self.id(&c.form)).collect()

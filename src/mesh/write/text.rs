@@ -66,10 +66,14 @@ impl Text {
 }
 
 /// Whether two shortest round-trip texts of `x` may exist (a tie between the last digits,
-/// which ryu and Rust break differently): only where the exact decimal value of `x` has at
-/// most 18 significant digits (its last digit 5). A binary fraction m·2^e (m odd, e < 0) has
-/// exactly −e digits after the point, so that is where it has few of them, or at 1e16 and
-/// above. Mesh coordinates from Newton steps almost never are; those go to `{:?}`.
+/// which ryu and Rust break differently): only where the exact decimal value of `x` has 17
+/// or 18 significant digits (its last digit 5), or at 1e16 and above. A tie at L digits puts
+/// x halfway between two L-digit neighbours, each within the rounding interval of x, whose
+/// half-width is at most 2⁻⁵³·|x|: half a unit of the L-th digit is at least |x|·10^−L / 2,
+/// so 10^L ≥ 2⁵², L ≥ 16, and x has L + 1 digits. With fewer, its exact decimal is its one
+/// shortest text (a CAD part's faces at 1.5 or 0.25), which ryu writes. A binary fraction
+/// m·2^e (m odd, e < 0) has exactly −e digits after the point, so that is where it has 17 or
+/// 18 of them. Mesh coordinates from Newton steps almost never do; those go to `{:?}`.
 fn may_tie(x: f64) -> bool {
     if !x.is_finite() || x == 0.0 {
         return false;
@@ -95,7 +99,7 @@ fn may_tie(x: f64) -> bool {
     }
     // Digits before the point, give or take one (the margin covers log10's rounding).
     let whole = abs.log10().floor() as i64 + 1;
-    whole - e <= 19
+    (16..=19).contains(&(whole - e))
 }
 
 /// The biased exponent field of `abs` (> 0, finite) and the power of two of its lowest set
@@ -219,7 +223,7 @@ mod tests {
             return true;
         }
         let e = exponents(abs).1;
-        e < 0 && abs.log10().floor() as i64 + 1 - e <= 19
+        e < 0 && (16..=19).contains(&(abs.log10().floor() as i64 + 1 - e))
     }
 
     #[test]
