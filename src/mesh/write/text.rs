@@ -207,6 +207,20 @@ mod tests {
             let k = (next() >> (11 + next() % 40)) as f64;
             edges.push(k * 2f64.powi(-((next() % 60) as i32)));
         }
+        // Binary fractions whose exact decimals have 14 to 20 digits, around the bound of
+        // `may_tie`: m/2ⁿ = m·5ⁿ/10ⁿ (m odd) has the digits of m·5ⁿ.
+        for n in 1..=22u32 {
+            for digits in 14..=20u32 {
+                let low = 10u128.pow(digits - 1) / 5u128.pow(n);
+                for _ in 0..40 {
+                    let m = (low + u128::from(next()) % low.max(1)) | 1;
+                    if m < 1 << 53 {
+                        let x = m as f64 / 2f64.powi(n as i32);
+                        edges.extend([x, -x]);
+                    }
+                }
+            }
+        }
         for x in edges {
             assert_eq!(ours(x), format!("{x:?}"), "{:#x}", x.to_bits());
             assert_eq!(may_tie(x), may_tie_by_log10(x), "{:#x}", x.to_bits());
