@@ -715,12 +715,11 @@ pub struct Creased {
     /// of the cell's coordinates: a star's points and a chord's straddle up to eight
     /// neighbouring cells, and neighbours never share a place.
     last_local: [Option<([i64; 3], Arc<Spine>)>; 8],
-    /// The buffers of a point query (`whole`, `active`): the branches' values
-    /// (`branches_of`) and the terms', reused rather than allocated for each of the crease
-    /// net's many points.
+    /// The buffers of the point queries, reused rather than allocated for each of the
+    /// crease net's many points: the branches' values for `active` (`branches_of`), the
+    /// terms' for `whole`, and a form's key for the lookups in `index` (`id`, `active`).
     branch_values: Vec<ValueGrad>,
     term_scratch: Vec<ValueGrad>,
-    /// A form's key for the lookups in `index` (`id`, `active`).
     key_scratch: Vec<u64>,
 }
 
