@@ -556,18 +556,12 @@ struct Block {
 }
 
 impl Block {
-    /// A lower bound of |p − x|² over the block's finite points p, as `GridDistances::get` computes it: each
-    /// axis's gap to the box is at most that coordinate's |p − x| after rounding (rounding is
-    /// monotone), and so are their squares and sums; ∞ for an empty box.
+    /// A lower bound of |p − x|² over the block's finite points p as `GridDistances::get`
+    /// computes it: each axis's gap to the box is at most that coordinate's |p − x| after
+    /// rounding (rounding is monotone), and so are their squares and sums; ∞ for an empty box.
     fn bound2(&self, x: DVec3) -> f64 {
         let gap = (self.lo - x).max(x - self.hi).max(DVec3::ZERO);
         gap.length_squared()
-    }
-
-    fn points(&self, side: usize) -> impl Iterator<Item = usize> + '_ {
-        self.i
-            .clone()
-            .flat_map(move |i| self.j.clone().map(move |j| i * side + j))
     }
 }
 
@@ -612,22 +606,17 @@ impl PatchGrid {
         let mut blocks = Vec::new();
         for i0 in (0..side).step_by(BLOCK) {
             for j0 in (0..side).step_by(BLOCK) {
-                let mut block = Block {
-                    i: i0..(i0 + BLOCK).min(side),
-                    j: j0..(j0 + BLOCK).min(side),
-                    lo: DVec3::INFINITY,
-                    hi: DVec3::NEG_INFINITY,
-                };
-                let finite: Vec<DVec3> = block
-                    .points(side)
-                    .map(|k| points[k])
-                    .filter(|p| p.is_finite())
-                    .collect();
-                for p in finite {
-                    block.lo = block.lo.min(p);
-                    block.hi = block.hi.max(p);
+                let (i, j) = (i0..(i0 + BLOCK).min(side), j0..(j0 + BLOCK).min(side));
+                let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+                for a in i.clone() {
+                    for p in &points[a * side + j.start..a * side + j.end] {
+                        if p.is_finite() {
+                            lo = lo.min(*p);
+                            hi = hi.max(*p);
+                        }
+                    }
                 }
-                blocks.push(block);
+                blocks.push(Block { i, j, lo, hi });
             }
         }
         Ok(PatchGrid {
@@ -705,7 +694,7 @@ impl GridDistances<'_> {
         for a in i.saturating_sub(1)..(i + 2).min(side) {
             for b in j.saturating_sub(1)..(j + 2).min(side) {
                 let o = a * side + b;
-                // (dk, k) < (do, o), do never NaN.
+                // (dk, k) < (d, o); d is never NaN.
                 let d = self.get(o);
                 if o != k && !(dk < d || (dk == d && k < o)) {
                     return false;
