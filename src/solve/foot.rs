@@ -741,7 +741,8 @@ impl GridDistances<'_> {
                 seeds.push((d2.sqrt(), k));
             }
         });
-        // (d, index) is a total order here (indices differ), so the blocks' order is lost.
+        // (d, index) orders them totally (no two share an index): the order in which the
+        // blocks were visited does not show.
         seeds.sort_by(|a, b| a.partial_cmp(b).unwrap_or(Ordering::Equal));
         seeds
     }
