@@ -212,6 +212,15 @@ pub enum SpineError {
     TooManyPieces(usize),
 }
 
+/// What a term of a spine stands for once bounds decide its choice (`Spine::pruned`):
+/// itself, or an operand it was decided to be (negated for an abs of negative sign).
+#[derive(Clone, Copy)]
+enum Is {
+    Kept,
+    Same(usize),
+    Negated(usize),
+}
+
 impl Spine {
     /// A spine over `branches` branch surfaces; each term may use only earlier terms.
     pub fn new(terms: Vec<Term>, branches: usize) -> Result<Spine, SpineError> {
@@ -497,71 +506,25 @@ impl Spine {
     /// near a point depend on the primitives near it. Also returns the bound of f over the
     /// region. Branch ids stay those of `self`; only the branches of the result are bounded.
     pub fn pruned(&self, bound: &mut dyn FnMut(usize) -> Interval) -> (Spine, Interval) {
-        let entire = |i: Interval| if i.is_empty() { Interval::ENTIRE } else { i };
-        // Each term's interval, and what it stands for in the result: itself, or an operand
-        // it was decided to be (negated for an abs of negative sign).
-        let mut iv: Vec<Interval> = Vec::with_capacity(self.terms.len());
-        #[derive(Clone, Copy)]
-        enum Is {
-            Kept,
-            Same(usize),
-            Negated(usize),
-        }
-        let mut is: Vec<Is> = Vec::with_capacity(self.terms.len());
-        for t in &self.terms {
-            let (value, what) = match *t {
-                Term::Branch(k) => (entire(bound(k)), Is::Kept),
-                Term::Const(c) => (Interval::point(c), Is::Kept),
-                Term::Neg(a) => (interval(Op::Neg, iv[a], iv[a]), Is::Kept),
-                Term::Scale(c, a) => (interval(Op::Mul, iv[a], Interval::point(c)), Is::Kept),
-                Term::Add(a, b) => (interval(Op::Add, iv[a], iv[b]), Is::Kept),
-                Term::Sub(a, b) => (interval(Op::Sub, iv[a], iv[b]), Is::Kept),
-                Term::Min(a, b) | Term::Max(a, b) => {
-                    let (x, y) = (iv[a], iv[b]);
-                    let min = matches!(t, Term::Min(..));
-                    let hull = if min {
-                        Interval::new(x.lo.min(y.lo), x.hi.min(y.hi))
-                    } else {
-                        Interval::new(x.lo.max(y.lo), x.hi.max(y.hi))
-                    };
-                    // a is always chosen where it lies strictly on the chosen side of b.
-                    let (a_wins, b_wins) = if min {
-                        (x.hi < y.lo, y.hi < x.lo)
-                    } else {
-                        (x.lo > y.hi, y.lo > x.hi)
-                    };
-                    if a_wins {
-                        (x, Is::Same(a))
-                    } else if b_wins {
-                        (y, Is::Same(b))
-                    } else {
-                        (hull, Is::Kept)
-                    }
-                }
-                Term::Abs(a) => {
-                    let x = iv[a];
-                    if x.lo >= 0.0 {
-                        (x, Is::Same(a))
-                    } else if x.hi <= 0.0 {
-                        (interval(Op::Neg, x, x), Is::Negated(a))
-                    } else {
-                        (interval(Op::Abs, x, x), Is::Kept)
-                    }
-                }
-                Term::Select(a, b, sel) => {
-                    let s = iv[sel];
-                    if s.lo >= 0.0 {
-                        (iv[a], Is::Same(a))
-                    } else if s.hi < 0.0 {
-                        (iv[b], Is::Same(b))
-                    } else {
-                        (iv[a].hull(iv[b]), Is::Kept)
-                    }
-                }
-            };
-            iv.push(value);
-            is.push(what);
-        }
+        let (iv, is) = self.decide(bound);
+        let root = iv[iv.len() - 1];
+        (self.emit_decided(&is), root)
+    }
+
+    /// `pruned`, where `wanted` holds for the bound of f over the region; else None, without
+    /// building the pruned spine (a search that drops the cells f's bound keeps from zero).
+    pub fn pruned_if(
+        &self,
+        bound: &mut dyn FnMut(usize) -> Interval,
+        wanted: impl FnOnce(Interval) -> bool,
+    ) -> Option<(Spine, Interval)> {
+        let (iv, is) = self.decide(bound);
+        let root = iv[iv.len() - 1];
+        wanted(root).then(|| (self.emit_decided(&is), root))
+    }
+
+    /// The spine of the terms the root reaches once the choices `is` are made (`decide`).
+    fn emit_decided(&self, is: &[Is]) -> Spine {
         // The result: the terms the root reaches, each decided choice replaced by the operand
         // it stands for; built from the root down, emitted in topological order.
         let mut new_index: Vec<Option<usize>> = vec![None; self.terms.len()];
@@ -619,12 +582,83 @@ impl Spine {
             out.len() - 1
         }
         let root = self.terms.len() - 1;
-        let top = emit(root, &self.terms, &is, &mut new_index, &mut out);
+        let top = emit(root, &self.terms, is, &mut new_index, &mut out);
         // The root must be last: a root decided to an earlier term is that term's subtree,
         // which `emit` ends with.
         debug_assert_eq!(top, out.len() - 1);
-        let spine = Spine::new(out, self.branches).unwrap_or_else(|_| self.clone());
-        (spine, iv[root])
+        Spine::new(out, self.branches).unwrap_or_else(|_| self.clone())
+    }
+
+    /// The bound of f where each branch k takes values in `bound(k)`: the interval `pruned`
+    /// returns, without building the pruned spine (what a bound alone asks for).
+    pub fn bound_over(&self, bound: &mut dyn FnMut(usize) -> Interval) -> Interval {
+        let (iv, _) = self.decide(bound);
+        iv[iv.len() - 1]
+    }
+
+    /// The choices the bounds decide (`pruned`): each term's interval, and what the term
+    /// stands for in the result.
+    fn decide(&self, bound: &mut dyn FnMut(usize) -> Interval) -> (Vec<Interval>, Vec<Is>) {
+        let entire = |i: Interval| if i.is_empty() { Interval::ENTIRE } else { i };
+        // Each term's interval, and what it stands for in the result: itself, or an operand
+        // it was decided to be (negated for an abs of negative sign).
+        let mut iv: Vec<Interval> = Vec::with_capacity(self.terms.len());
+        let mut is: Vec<Is> = Vec::with_capacity(self.terms.len());
+        for t in &self.terms {
+            let (value, what) = match *t {
+                Term::Branch(k) => (entire(bound(k)), Is::Kept),
+                Term::Const(c) => (Interval::point(c), Is::Kept),
+                Term::Neg(a) => (interval(Op::Neg, iv[a], iv[a]), Is::Kept),
+                Term::Scale(c, a) => (interval(Op::Mul, iv[a], Interval::point(c)), Is::Kept),
+                Term::Add(a, b) => (interval(Op::Add, iv[a], iv[b]), Is::Kept),
+                Term::Sub(a, b) => (interval(Op::Sub, iv[a], iv[b]), Is::Kept),
+                Term::Min(a, b) | Term::Max(a, b) => {
+                    let (x, y) = (iv[a], iv[b]);
+                    let min = matches!(t, Term::Min(..));
+                    let hull = if min {
+                        Interval::new(x.lo.min(y.lo), x.hi.min(y.hi))
+                    } else {
+                        Interval::new(x.lo.max(y.lo), x.hi.max(y.hi))
+                    };
+                    // a is always chosen where it lies strictly on the chosen side of b.
+                    let (a_wins, b_wins) = if min {
+                        (x.hi < y.lo, y.hi < x.lo)
+                    } else {
+                        (x.lo > y.hi, y.lo > x.hi)
+                    };
+                    if a_wins {
+                        (x, Is::Same(a))
+                    } else if b_wins {
+                        (y, Is::Same(b))
+                    } else {
+                        (hull, Is::Kept)
+                    }
+                }
+                Term::Abs(a) => {
+                    let x = iv[a];
+                    if x.lo >= 0.0 {
+                        (x, Is::Same(a))
+                    } else if x.hi <= 0.0 {
+                        (interval(Op::Neg, x, x), Is::Negated(a))
+                    } else {
+                        (interval(Op::Abs, x, x), Is::Kept)
+                    }
+                }
+                Term::Select(a, b, sel) => {
+                    let s = iv[sel];
+                    if s.lo >= 0.0 {
+                        (iv[a], Is::Same(a))
+                    } else if s.hi < 0.0 {
+                        (iv[b], Is::Same(b))
+                    } else {
+                        (iv[a].hull(iv[b]), Is::Kept)
+                    }
+                }
+            };
+            iv.push(value);
+            is.push(what);
+        }
+        (iv, is)
     }
 
     /// The branches the spine's terms use.
@@ -899,8 +933,7 @@ impl Creased {
     pub fn bound(&mut self, lo: DVec3, hi: DVec3) -> Interval {
         let base = self.base_for(lo, hi);
         let branches = &mut self.branches;
-        base.pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE))
-            .1
+        base.bound_over(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE))
     }
 
     /// f's value and partials over the box lo..hi: the value as `bound` says, the partials
@@ -1579,7 +1612,9 @@ mod tests {
 
     /// A localized spine's pruning from the cells above (`base_for`, `spine_at`) against the
     /// whole spine pruned over the same box, on random CSG trees of planes (min, max, abs,
-    /// sums) and boxes of every size: the same terms and the same bound, bit for bit.
+    /// sums) and boxes of every size: the same terms and the same bound, bit for bit; and
+    /// the bound alone (`Creased::bound`) and the pruning where the bound holds 0
+    /// (`pruned_if`) are the pruning's.
     #[test]
     fn pruning_from_the_cells_above_is_pruning_the_whole() {
         let mut next = crate::testing::uniform(0x9e37_79b9_7f4a_7c15);
@@ -1628,11 +1663,20 @@ mod tests {
                     base.pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
                 let whole =
                     spine.pruned(&mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE));
+                let bits = |i: Interval| (i.lo.to_bits(), i.hi.to_bits());
                 assert_eq!(from_cells.0, whole.0);
-                assert_eq!(
-                    (from_cells.1.lo.to_bits(), from_cells.1.hi.to_bits()),
-                    (whole.1.lo.to_bits(), whole.1.hi.to_bits())
+                assert_eq!(bits(from_cells.1), bits(whole.1));
+                // Pruned only where the bound is wanted, and the bound alone, are the same.
+                let near_zero = |b: Interval| b.contains(0.0);
+                let kept = spine.pruned_if(
+                    &mut |k| branches[k].bound(lo, hi).unwrap_or(Interval::ENTIRE),
+                    near_zero,
                 );
+                assert_eq!(
+                    kept.map(|(s, b)| (s, bits(b))),
+                    near_zero(whole.1).then(|| (whole.0.clone(), bits(whole.1)))
+                );
+                assert_eq!(bits(localized.bound(lo, hi)), bits(whole.1));
                 // The point query's spine is the whole one pruned over the point's cell.
                 let key = (c * size.recip()).floor();
                 let cell_lo = key * size - DVec3::splat(0.01 * size);

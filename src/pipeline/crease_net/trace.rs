@@ -4,11 +4,13 @@
 //! their corners, and each crease resampled at the local step of both its pieces.
 
 use std::collections::{HashMap, HashSet};
+use std::rc::Rc;
 
 use glam::{DMat3, DVec3};
 
 use super::pair::Wanted;
 use super::{CreaseError, CreaseSettings};
+use crate::eval::Interval;
 use crate::solve::SurfacePoint;
 use crate::solve::curve::{ArcLength, min_norm_step};
 use crate::solve::surfacepoint::tangent_frame;
@@ -16,6 +18,10 @@ use crate::surface::{Surface, ValueGrad};
 use crate::survey::faces::{self, Crossing, FaceSettings, Junction, Leaving, Scale};
 use crate::survey::sizing::Sizing;
 use crate::survey::spine::{Creased, Spine};
+
+/// A cell of the crease search's octree: its box, the spine pruned over it (or over the
+/// cell it was split from) and that spine's forms, once known.
+type Cell = (DVec3, DVec3, Rc<Spine>, Option<Rc<Vec<usize>>>);
 
 mod dying;
 pub(super) use dying::seam_point;
@@ -129,10 +135,12 @@ impl<'a> Tracer<'a> {
     pub fn cells(&mut self, whole: &mut dyn Surface) -> Result<Vec<Leaf>, CreaseError> {
         let leaf = self.s.leaf * self.step;
         let mut out = Vec::new();
-        let root = self.c.spine().clone();
-        let mut stack: Vec<(DVec3, DVec3, Spine)> = vec![(self.bbox.0, self.bbox.1, root)];
+        // A cell's children share its pruned spine and its forms: a child whose spine prunes
+        // to the same terms has the same forms (`forms_of` is a function of the terms).
+        let root = Rc::new(self.c.spine().clone());
+        let mut stack: Vec<Cell> = vec![(self.bbox.0, self.bbox.1, root, None)];
         let mut visited = 0usize;
-        while let Some((lo, hi, spine)) = stack.pop() {
+        while let Some((lo, hi, spine, spine_forms)) = stack.pop() {
             visited += 1;
             if visited > self.s.max_cells {
                 return Err(CreaseError::CellLimit {
@@ -143,26 +151,37 @@ impl<'a> Tracer<'a> {
                 if !whole.bound(lo, hi).is_none_or(|i| i.contains(0.0)) {
                     continue;
                 }
-                (spine, (0..self.c.form_count()).collect::<Vec<_>>())
+                let forms =
+                    spine_forms.unwrap_or_else(|| Rc::new((0..self.c.form_count()).collect()));
+                (spine, forms)
             } else {
                 let c = &mut *self.c;
-                let (pruned, bound) = spine.pruned(&mut |k| c.branch_bound(k, lo, hi));
-                if !bound.contains(0.0) && !bound.is_empty() {
+                let near_zero = |bound: Interval| bound.contains(0.0) || bound.is_empty();
+                let Some((pruned, _)) =
+                    spine.pruned_if(&mut |k| c.branch_bound(k, lo, hi), near_zero)
+                else {
                     continue;
+                };
+                match spine_forms {
+                    // The parent's spine had a choice (it was split), and so has this one.
+                    Some(forms) if pruned == *spine => (spine, forms),
+                    _ => {
+                        if !pruned.has_choice() {
+                            continue;
+                        }
+                        let forms =
+                            self.c
+                                .forms_of(&pruned)
+                                .map_err(|_| CreaseError::TooManyForms {
+                                    at: 0.5 * (lo + hi),
+                                })?;
+                        (Rc::new(pruned), Rc::new(forms))
+                    }
                 }
-                if !pruned.has_choice() {
-                    continue;
-                }
-                let forms = self
-                    .c
-                    .forms_of(&pruned)
-                    .map_err(|_| CreaseError::TooManyForms {
-                        at: 0.5 * (lo + hi),
-                    })?;
-                (pruned, forms)
             };
             let zero: Vec<usize> = forms
-                .into_iter()
+                .iter()
+                .copied()
                 .filter(|&i| self.c.form_bound(i, lo, hi).is_none_or(|b| b.contains(0.0)))
                 .collect();
             if zero.len() < 2 {
@@ -194,7 +213,7 @@ impl<'a> Tracer<'a> {
                 children
                     .into_iter()
                     .rev()
-                    .map(|(a, b)| (a, b, spine.clone())),
+                    .map(|(a, b)| (a, b, Rc::clone(&spine), Some(Rc::clone(&forms)))),
             );
         }
         Ok(out)
