@@ -44,6 +44,7 @@ use std::time::{Duration, Instant};
 use common::cad::{self, Class, Part, Reference};
 use common::rng::Rng;
 use glam::DVec3;
+use rayon::prelude::*;
 use surfc::mesh::Mesh;
 use surfc::mesh::check::{Expect, check};
 
@@ -693,6 +694,19 @@ fn kind_of(note: &str) -> String {
     out.replace("[#, #, #]", "P")
 }
 
+/// One run of the sweep: a part at one multiple of its smallest feature, judged.
+struct PartRun {
+    case: usize,
+    this: Class,
+    /// The multiple's place in `MULTIPLES`.
+    mi: usize,
+    multiple: f64,
+    step: f64,
+    judged: Judged,
+    /// The reference's summary, on the run that computed it.
+    reference_note: Option<String>,
+}
+
 /// Must-show 3: the generated sweep (module documentation).
 #[test]
 #[ignore = "long run: `.ci/run` runs it with SURFC_CAD_CASES=18 (cargo test -- --include-ignored cad_sweep::)"]
@@ -714,28 +728,72 @@ fn generated_parts_mesh_right_or_refuse_with_a_place() {
     let mut refusals: BTreeMap<String, (usize, String)> = BTreeMap::new();
     let mut wrong: Vec<String> = Vec::new();
     let mut failures: Vec<String> = Vec::new();
-    let mut parts = 0;
     let mut lowest = (f64::INFINITY, f64::INFINITY);
-    for case in 0..cases {
-        let this = Class::ALL[case % Class::ALL.len()];
-        if only.is_some_and(|k| k != case) || class.is_some_and(|c| c != this) {
-            continue;
-        }
-        parts += 1;
-        let drawn = Instant::now();
-        let part = cad::generate(this, &mut case_rng(seed, case));
-        println!(
-            "part {case} ({}): {}; smallest feature {} (drawn in {:.2} s)",
-            this.name(),
-            part.what,
-            part.feature,
-            drawn.elapsed().as_secs_f64()
-        );
-        let mut reference = None;
-        for (mi, &multiple) in MULTIPLES.iter().enumerate() {
-            let step = part.step(multiple);
-            let had_reference = reference.is_some();
-            let judged = judge(&part, step, multiple, &dir, &mut reference);
+    let chosen: Vec<(usize, Class)> = (0..cases)
+        .map(|case| (case, Class::ALL[case % Class::ALL.len()]))
+        .filter(|&(case, this)| only.is_none_or(|k| k == case) && class.is_none_or(|c| c == this))
+        .collect();
+    let parts = chosen.len();
+    // The parts judged side by side on the rayon pool, each in a folder of its own (most of
+    // a part's time is its voxel reference and the comparison, on one thread), then reported
+    // in order: the same lines, tables and verdicts as one after another.
+    let judged_parts: Vec<(String, Vec<PartRun>)> = chosen
+        .par_iter()
+        .map(|&(case, this)| {
+            let drawn = Instant::now();
+            let part = cad::generate(this, &mut case_rng(seed, case));
+            let header = format!(
+                "part {case} ({}): {}; smallest feature {} (drawn in {:.2} s)",
+                this.name(),
+                part.what,
+                part.feature,
+                drawn.elapsed().as_secs_f64()
+            );
+            let here = dir.join(format!("part{case}"));
+            std::fs::create_dir_all(&here).expect("the part's scratch folder");
+            let mut reference = None;
+            let runs = MULTIPLES
+                .iter()
+                .enumerate()
+                .map(|(mi, &multiple)| {
+                    let step = part.step(multiple);
+                    let had_reference = reference.is_some();
+                    let judged = judge(&part, step, multiple, &here, &mut reference);
+                    // What the reference was, said once (by the run that made it).
+                    let reference_note = match (&reference, had_reference) {
+                        (Some(Ok(r)), false) => Some(format!(
+                            " [reference: χ {}, {} components, voxel {:.4}]",
+                            r.euler, r.components, r.voxel
+                        )),
+                        (Some(Err(_)), false) => Some(" [no reference]".to_string()),
+                        _ => None,
+                    };
+                    PartRun {
+                        case,
+                        this,
+                        mi,
+                        multiple,
+                        step,
+                        judged,
+                        reference_note,
+                    }
+                })
+                .collect();
+            (header, runs)
+        })
+        .collect();
+    for (header, runs) in judged_parts {
+        println!("{header}");
+        for run in runs {
+            let PartRun {
+                case,
+                this,
+                mi,
+                multiple,
+                step,
+                judged,
+                reference_note,
+            } = run;
             let count = table.entry((this, mi)).or_default();
             count.runs += 1;
             count.slowest = count.slowest.max(judged.seconds);
@@ -799,16 +857,8 @@ fn generated_parts_mesh_right_or_refuse_with_a_place() {
                     line += &format!(": {why}");
                 }
             }
-            if !had_reference {
-                if let Some(r) = &reference {
-                    line += &match r {
-                        Ok(r) => format!(
-                            " [reference: χ {}, {} components, voxel {:.4}]",
-                            r.euler, r.components, r.voxel
-                        ),
-                        Err(_) => " [no reference]".to_string(),
-                    };
-                }
+            if let Some(note) = reference_note {
+                line += &note;
             }
             println!("{line}");
             // Dumped: every run not right, and right runs below the quality bars (as

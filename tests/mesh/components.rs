@@ -12,6 +12,7 @@ use common::build::{build, checked};
 use common::rng::Rng;
 use common::voxel::solid_count;
 use glam::DVec3;
+use rayon::prelude::*;
 use surfc::mesh::check::{Expect, check};
 use surfc::mesh::topology::{Topology, topology};
 use surfc::pipeline::{Meshed, mesh_source};
@@ -240,33 +241,41 @@ fn random_disjoint_shapes_are_all_found() {
     let cases: usize = common::env_number("COMPONENT_CASES").unwrap_or(5);
     let seed: u64 = common::env_number("COMPONENT_SEED").unwrap_or(0x5EED_C0DE_2026_0011);
     let mut rng = Rng(seed);
-    let mut triangles = 0;
-    for case in 0..cases {
-        let s = scene(&mut rng);
-        // The generator's known values, confirmed by the voxel reference (grid 0.05).
-        assert_eq!(
-            voxel_truth(&s.source, 84),
-            (s.components, s.euler),
-            "case {case}: the generator's known values\n{}",
-            s.source
-        );
-        let m = mesh_one(&s.source);
-        let t = topology(&m.mesh);
-        assert!(
-            t.components == s.components && t.euler_characteristic == s.euler,
-            "case {case}: {} components, χ {} (expected {}, {})\n{}",
-            t.components,
-            t.euler_characteristic,
-            s.components,
-            s.euler,
-            s.source
-        );
-        // The marcher's angles are issue 10's: a thin torus at this step has triangles down
-        // to 12.6° (seed 20261130); what is tested here is that every shape is found whole.
-        assert_closed_with(&m, s.components, s.euler, 10.0);
-        triangles += t.triangles;
-    }
+    let scenes: Vec<_> = (0..cases).map(|_| scene(&mut rng)).collect();
+    // The scenes checked side by side on the rayon pool (each voxel count and mesh is on
+    // one thread for much of its time).
+    let triangles: usize = scenes
+        .par_iter()
+        .enumerate()
+        .map(|(case, s)| random_scene_is_found(case, s))
+        .sum();
     println!("{cases} scenes, {triangles} triangles");
+}
+
+/// One scene of `random_disjoint_shapes_are_all_found`, checked; its triangles.
+fn random_scene_is_found(case: usize, s: &Scene) -> usize {
+    // The generator's known values, confirmed by the voxel reference (grid 0.05).
+    assert_eq!(
+        voxel_truth(&s.source, 84),
+        (s.components, s.euler),
+        "case {case}: the generator's known values\n{}",
+        s.source
+    );
+    let m = mesh_one(&s.source);
+    let t = topology(&m.mesh);
+    assert!(
+        t.components == s.components && t.euler_characteristic == s.euler,
+        "case {case}: {} components, χ {} (expected {}, {})\n{}",
+        t.components,
+        t.euler_characteristic,
+        s.components,
+        s.euler,
+        s.source
+    );
+    // The marcher's angles are issue 10's: a thin torus at this step has triangles down
+    // to 12.6° (seed 20261130); what is tested here is that every shape is found whole.
+    assert_closed_with(&m, s.components, s.euler, 10.0);
+    t.triangles
 }
 
 /// Meshes `source` (one block with a box) and checks it with `expect` plus: every vertex in
