@@ -506,9 +506,8 @@ impl Spine {
     /// near a point depend on the primitives near it. Also returns the bound of f over the
     /// region. Branch ids stay those of `self`; only the branches of the result are bounded.
     pub fn pruned(&self, bound: &mut dyn FnMut(usize) -> Interval) -> (Spine, Interval) {
-        let (iv, is) = self.decide(bound);
-        let root = iv[iv.len() - 1];
-        (self.emit_decided(&is), root)
+        self.pruned_if(bound, |_| true)
+            .expect("a pruning wanted whatever the bound")
     }
 
     /// `pruned`, where `wanted` holds for the bound of f over the region; else None, without

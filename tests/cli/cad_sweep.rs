@@ -694,10 +694,8 @@ fn kind_of(note: &str) -> String {
     out.replace("[#, #, #]", "P")
 }
 
-/// One run of the sweep: a part at one multiple of its smallest feature, judged.
+/// One run of a part in the sweep: at one multiple of its smallest feature, judged.
 struct PartRun {
-    case: usize,
-    this: Class,
     /// The multiple's place in `MULTIPLES`.
     mi: usize,
     multiple: f64,
@@ -737,7 +735,7 @@ fn generated_parts_mesh_right_or_refuse_with_a_place() {
     // The parts judged side by side on the rayon pool, each in a folder of its own (most of
     // a part's time is its voxel reference and the comparison, on one thread), then reported
     // in order: the same lines, tables and verdicts as one after another.
-    let judged_parts: Vec<(String, Vec<PartRun>)> = chosen
+    let judged_parts: Vec<(usize, Class, String, Vec<PartRun>)> = chosen
         .par_iter()
         .map(|&(case, this)| {
             let drawn = Instant::now();
@@ -769,8 +767,6 @@ fn generated_parts_mesh_right_or_refuse_with_a_place() {
                         _ => None,
                     };
                     PartRun {
-                        case,
-                        this,
                         mi,
                         multiple,
                         step,
@@ -779,15 +775,13 @@ fn generated_parts_mesh_right_or_refuse_with_a_place() {
                     }
                 })
                 .collect();
-            (header, runs)
+            (case, this, header, runs)
         })
         .collect();
-    for (header, runs) in judged_parts {
+    for (case, this, header, runs) in judged_parts {
         println!("{header}");
         for run in runs {
             let PartRun {
-                case,
-                this,
                 mi,
                 multiple,
                 step,
