@@ -182,6 +182,10 @@ fn components(inside: &[bool], dims: [usize; 3], side: bool, diagonal: bool) -> 
 
 /// Calls `visit` with the vertices of each connected component of the grid vertices whose
 /// inside flag is `side` (joined as in `components`).
+///
+/// The flood fill runs on a copy of the grid with a border of one vertex all round that
+/// belongs to no component, so that a neighbour is one offset away in memory and needs no
+/// bounds test (the voxel reference is a good share of the mesh sweeps' time).
 fn each_component(
     inside: &[bool],
     dims: [usize; 3],
@@ -189,36 +193,49 @@ fn each_component(
     diagonal: bool,
     mut visit: impl FnMut(&[usize]),
 ) {
-    let mut seen = vec![false; inside.len()];
-    let mut stack = Vec::new();
-    let mut members = Vec::new();
-    let offsets: Vec<[i64; 3]> = (-1..=1)
-        .flat_map(|k| (-1..=1).flat_map(move |j| (-1..=1).map(move |i| [i, j, k])))
+    let [mx, my, mz] = dims;
+    let (px, py) = (mx + 2, my + 2);
+    let padded = |i: usize, j: usize, k: usize| ((k + 1) * py + j + 1) * px + i + 1;
+    // `open[t]`: padded vertex t is on `side` and not yet in a component.
+    let mut open = vec![false; px * py * (mz + 2)];
+    for k in 0..mz {
+        for j in 0..my {
+            let row = (k * my + j) * mx;
+            let start = padded(0, j, k);
+            for (o, &v) in open[start..start + mx]
+                .iter_mut()
+                .zip(&inside[row..row + mx])
+            {
+                *o = v == side;
+            }
+        }
+    }
+    let offsets: Vec<isize> = (-1..=1isize)
+        .flat_map(|k| (-1..=1isize).flat_map(move |j| (-1..=1isize).map(move |i| [i, j, k])))
         .filter(|o| {
             let nonzero = o.iter().filter(|&&c| c != 0).count();
             nonzero > 0 && (diagonal || nonzero == 1)
         })
+        .map(|[i, j, k]| (k * py as isize + j) * px as isize + i)
         .collect();
-    let [mx, my, mz] = dims.map(|d| d as i64);
+    let mut stack = Vec::new();
+    let mut members = Vec::new();
     for start in 0..inside.len() {
-        if inside[start] != side || seen[start] {
+        let (i, j, k) = (start % mx, (start / mx) % my, start / (mx * my));
+        let s = padded(i, j, k);
+        if !open[s] {
             continue;
         }
         members.clear();
-        seen[start] = true;
-        stack.push(start);
+        open[s] = false;
+        stack.push(s);
         while let Some(s) = stack.pop() {
-            members.push(s);
-            let s = s as i64;
-            let at = [s % mx, (s / mx) % my, s / (mx * my)];
-            for o in &offsets {
-                let n = [at[0] + o[0], at[1] + o[1], at[2] + o[2]];
-                if n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= mx || n[1] >= my || n[2] >= mz {
-                    continue;
-                }
-                let t = ((n[2] * my + n[1]) * mx + n[0]) as usize;
-                if inside[t] == side && !seen[t] {
-                    seen[t] = true;
+            let (i, j, k) = (s % px - 1, (s / px) % py - 1, s / (px * py) - 1);
+            members.push((k * my + j) * mx + i);
+            for &o in &offsets {
+                let t = s.wrapping_add_signed(o);
+                if open[t] {
+                    open[t] = false;
                     stack.push(t);
                 }
             }

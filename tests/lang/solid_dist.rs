@@ -281,10 +281,17 @@ fn check_point(solid: &Solid, d: &mut surfc::Function, p: DVec3) -> Result<bool,
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 64, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig {
+        cases: crate::common::env_number("SURFC_DIST_CASES").unwrap_or(24),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
 
     /// Values at random points inside and outside each solid agree with the exact distance
-    /// to 1e-10; gradients with the exact distance's and with central differences.
+    /// to 1e-10; gradients with the exact distance's and with central differences. Each case
+    /// compiles its solid afresh (a cold `dist`, which the Cranelift of the test build compiles
+    /// in about a tenth of a second): `SURFC_DIST_CASES=N` runs N cases (default 24; `.ci/run`
+    /// runs 64).
     #[test]
     fn dist_of_solids_is_exact_inside_and_outside(
         which in 0usize..5,

@@ -234,11 +234,11 @@ fn scene(rng: &mut Rng) -> Scene {
     }
 }
 
-/// Must show 2. `COMPONENT_CASES` sets the number of scenes (default 5, about 3 s on one
-/// core; `.ci/run` runs 120), `COMPONENT_SEED` the generator's seed.
+/// Must show 2. `COMPONENT_CASES` sets the number of scenes (default 3, about 2 s on one
+/// core; `.ci/run` runs 80), `COMPONENT_SEED` the generator's seed.
 #[test]
 fn random_disjoint_shapes_are_all_found() {
-    let cases: usize = common::env_number("COMPONENT_CASES").unwrap_or(5);
+    let cases: usize = common::env_number("COMPONENT_CASES").unwrap_or(3);
     let seed: u64 = common::env_number("COMPONENT_SEED").unwrap_or(0x5EED_C0DE_2026_0011);
     let mut rng = Rng(seed);
     let scenes: Vec<_> = (0..cases).map(|_| scene(&mut rng)).collect();
@@ -507,11 +507,11 @@ fn thin_scene(rng: &mut Rng) -> (Scene, f64) {
 /// Features smaller than the step in a box, without a start: every shape is found and meshed
 /// whole at its local step, or the block fails with a diagnostic; never a shape dropped or a
 /// wrong count reported as success (a thin torus used to be taken for "a component smaller
-/// than the step" and left out). `THIN_SCENES` sets the number of scenes (default 4; `.ci/run`
+/// than the step" and left out). `THIN_SCENES` sets the number of scenes (default 2; `.ci/run`
 /// runs 24).
 #[test]
 fn random_scenes_with_features_smaller_than_the_step() {
-    let cases: usize = common::env_number("THIN_SCENES").unwrap_or(4);
+    let cases: usize = common::env_number("THIN_SCENES").unwrap_or(2);
     let mut rng = Rng(0x7417_C0DE_2026_1130);
     let (mut right, mut refused) = (0, 0);
     for case in 0..cases {

@@ -11,8 +11,8 @@
 //! can resolve the shape's smallest feature (always for the blobs, whose extent is known
 //! only from it).
 //!
-//! `SURFC_SWEEP=N` runs N shapes (default 12, ~3 s in the test profile; 200 for the full
-//! run); `SURFC_SWEEP_SEED=S` draws another set of shapes (default the fixed seed below);
+//! `SURFC_SWEEP=N` runs N shapes (default 8, ~2 s in the test profile; `.ci/run` runs
+//! 140); `SURFC_SWEEP_SEED=S` draws another set of shapes (default the fixed seed below);
 //! `SURFC_SWEEP_PIECES=N` marches each shape as `surfc mesh` does (`pipeline::pieces`), with
 //! a component above about N triangles cut into slabs (say 2000: most are cut);
 //! `SURFC_SWEEP_ONLY=i` meshes only shape #i of the run (to trace it; `SURFC_SWEEP_OBJ=path`
@@ -151,7 +151,7 @@ const DEFAULT_SEED: u64 = 0x5EED_0010;
 
 #[test]
 fn generated_shapes_are_meshed_right_or_refused() {
-    let n: usize = env_number("SURFC_SWEEP").unwrap_or(12);
+    let n: usize = env_number("SURFC_SWEEP").unwrap_or(8);
     let seed = env_number("SURFC_SWEEP_SEED").unwrap_or(DEFAULT_SEED);
     // A xorshift state of 0 stays 0: every draw would be 0 and `direction` would never end.
     assert_ne!(
@@ -479,10 +479,10 @@ fn slabs_below_the_mean_radius_ratio_are_not_taken() {
 /// faces, no crossings, the same Euler characteristic, boundary loops and components, the
 /// area within half a percent and the extent within a step of the whole march's. Shapes the
 /// whole march refuses in their box are counted, not compared. `SURFC_BOXED_SLABS=N` runs N
-/// shapes (default 8, three of them cut; `.ci/run` runs 60).
+/// shapes (default 4; `.ci/run` runs 45).
 #[test]
 fn boxed_slabs_mesh_what_the_whole_march_in_the_box_meshes() {
-    let n: usize = env_number("SURFC_BOXED_SLABS").unwrap_or(8);
+    let n: usize = env_number("SURFC_BOXED_SLABS").unwrap_or(4);
     let mut rng = Rng(DEFAULT_SEED ^ 0xB0C5);
     let whole_settings = MarchSettings {
         pieces_above: u64::MAX,
