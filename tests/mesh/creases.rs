@@ -14,6 +14,7 @@ use common::csg::{Degenerate, GeneralPosition, Primitive, Shape, SmoothOp, Tree}
 use common::rng::Rng;
 use common::voxel::{SolidCount, solid_count, two_readings};
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 use surfc::mesh::check::{Expect, check};
 use surfc::pipeline::{CreaseCounts, Meshed, mesh_source};
 
@@ -906,6 +907,9 @@ fn random_csg(smooth: bool, seed: u64, default_cases: usize) {
     let mut rng = Rng(seed);
     // One case alone (the others drawn, not meshed), to look at it.
     let only: Option<usize> = common::env_number("SURFC_CSG_ONLY");
+    // The cases drawn in order (the same draws and rejections whatever runs), then meshed
+    // on the pool and tallied in order.
+    let mut chosen: Vec<(usize, String, Tree)> = Vec::new();
     let mut case = 0;
     while case < cases {
         drawn += 1;
@@ -924,10 +928,6 @@ fn random_csg(smooth: bool, seed: u64, default_cases: usize) {
             *count += 1;
             continue;
         }
-        if only.is_some_and(|k| k != case) {
-            case += 1;
-            continue;
-        }
         // The solid must lie inside the mesh box, a voxel clear of its faces.
         let margin = DVec3::splat(voxel);
         let reaches_out = solid_count(|p| tree.value(p), lo + margin, hi - margin, 64).touches_box;
@@ -935,22 +935,32 @@ fn random_csg(smooth: bool, seed: u64, default_cases: usize) {
             outside += 1;
             continue;
         }
-        let source = format!(
-            "surface s = {};\nmesh s = s {{ step: {step}; box: ({}, {}, {}) .. ({}, {}, {}); }}\n",
-            tree.source(),
-            lo.x,
-            lo.y,
-            lo.z,
-            hi.x,
-            hi.y,
-            hi.z
-        );
-        let (outcome, meshed) = csg_mesh(&tree, &source, step, voxel);
+        if only.is_none_or(|k| k == case) {
+            let source = format!(
+                "surface s = {};\nmesh s = s {{ step: {step}; box: ({}, {}, {}) .. ({}, {}, {}); }}\n",
+                tree.source(),
+                lo.x,
+                lo.y,
+                lo.z,
+                hi.x,
+                hi.y,
+                hi.z
+            );
+            chosen.push((case, source, tree));
+        }
+        case += 1;
+    }
+    let judged: Vec<(Outcome, Option<Meshed>)> = chosen
+        .par_iter()
+        .map(|(_, source, tree)| csg_mesh(tree, source, step, voxel))
+        .collect();
+    for ((case, source, _), (outcome, meshed)) in chosen.iter().zip(judged) {
+        let case = *case;
         let dump = |what: &str| {
             if let Some(dir) = std::env::var_os("SURFC_CSG_DUMP") {
                 let kind = if smooth { "smooth_" } else { "" };
                 let path = std::path::Path::new(&dir).join(format!("{kind}{what}{case}.surf"));
-                std::fs::write(path, &source).expect("writes the case");
+                std::fs::write(path, source).expect("writes the case");
             }
         };
         match outcome {
@@ -985,7 +995,6 @@ fn random_csg(smooth: bool, seed: u64, default_cases: usize) {
                 wrong.push(format!("case {case}: {why}"));
             }
         }
-        case += 1;
     }
     eprintln!(
         "random CSG{}: {right} right, {refused} refused, {empty} empty, {skipped} skipped, \

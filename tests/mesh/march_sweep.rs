@@ -29,6 +29,7 @@ use common::thin::{Shape, blobs, dumbbell, plate, superquadric, torus};
 use common::voxel::solid_count;
 use common::{MEAN_RADIUS_RATIO, env_number};
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 use surfc::march::{MarchInput, MarchSettings, march_verified};
 use surfc::mesh::NamedMesh;
 use surfc::mesh::check::{Expect, check};
@@ -135,6 +136,169 @@ struct Tally {
     wrong: Vec<String>,
 }
 
+/// What one shape of the sweep came to.
+enum Verdict {
+    /// No independent check (other seeds only).
+    Skipped,
+    Refused,
+    /// Right, with the bars of issue 13 it misses.
+    Right {
+        below_angle: Option<String>,
+        below_ratio: Option<String>,
+    },
+    Wrong(String),
+}
+
+/// One shape judged: its lines of the report, its verdict, whether it was cut into slabs and
+/// whether the voxel count confirmed its topology.
+struct Judged {
+    report: String,
+    verdict: Verdict,
+    cut: bool,
+    voxel_checked: bool,
+}
+
+/// Meshes shape #`i` at `step` and judges the mesh against the shape's known topology, its
+/// extent and the chord tolerance (`only`: the run's one shape, whose mesh may be written).
+fn judge_shape(
+    i: usize,
+    sh: &Shape,
+    step: f64,
+    seed: u64,
+    only: bool,
+    pieces_above: Option<u64>,
+    settings: &MarchSettings,
+) -> Judged {
+    let voxel = voxel_view(sh);
+    let voxel_checked = voxel.is_some();
+    if let Some((euler, components, _, _)) = voxel {
+        // The generator's known topology, confirmed independently of any mesh.
+        assert_eq!(
+            (euler, components),
+            (sh.euler, 1),
+            "{}: voxel count",
+            sh.name
+        );
+    }
+    if !sh.bbox_exact && voxel.is_none() {
+        // A blob whose neck the voxel grid cannot resolve (another seed than the fixed
+        // one can draw it): no independent extent to check a mesh against.
+        assert!(seed != DEFAULT_SEED, "{}: no extent", sh.name);
+        return Judged {
+            report: format!("#{i} {}: skipped: no independent extent\n", sh.name),
+            verdict: Verdict::Skipped,
+            cut: false,
+            voxel_checked: false,
+        };
+    }
+    let mut s = sh.surface();
+    let input = MarchInput {
+        max_triangles: Some(500_000),
+        ..MarchInput::from_point(step, sh.start)
+    };
+    let tolerance = settings.tolerance * step;
+    let t = std::time::Instant::now();
+    // Fresh oracles for the quality stage's centroid round in blocks, and for the slabs.
+    let fork = || Some(sh.surface());
+    let (result, pieces) = match pieces_above {
+        None => (
+            march_verified(s.as_mut(), Some(&fork), &input, &settings, None),
+            1,
+        ),
+        Some(_) => match pieces::march(s.as_mut(), Some(&fork), &input, &settings, None) {
+            Ok(p) => (Ok(p.marched), p.pieces),
+            Err(e) => (Err(e), 1),
+        },
+    };
+    let what = format!(
+        "#{i} {} (feature {:.3}) at step {step:.4}{}",
+        sh.name,
+        sh.feature,
+        if pieces > 1 {
+            format!(" in {pieces} slabs")
+        } else {
+            String::new()
+        }
+    );
+    let report;
+    let verdict = match result {
+        Err(e) => {
+            report = format!("{what}: refused: {e}\n");
+            Verdict::Refused
+        }
+        Ok(m) => {
+            let (topo, violations) = check(
+                &m.mesh,
+                None,
+                &Expect {
+                    closed: true,
+                    euler: Some(sh.euler),
+                    components: Some(1),
+                    // Quality is measured elsewhere; here only rightness counts.
+                    min_angle_deg: 0.0,
+                    ..Expect::default()
+                },
+            );
+            let (lo, hi) = m.mesh.vertices.iter().fold(
+                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                |(lo, hi), &v| (lo.min(v), hi.max(v)),
+            );
+            // The extent: exact from the formula, else the voxel box (a cell wide).
+            let (want, slack) = match voxel {
+                Some((_, _, b, cell)) if !sh.bbox_exact => (b, cell),
+                _ => (sh.bbox, 0.0),
+            };
+            let off = (lo - want.0).abs().max((hi - want.1).abs());
+            let mut bad: Vec<String> = violations.iter().map(|v| format!("{v:?}")).collect();
+            if off.max_element() > tolerance + slack {
+                bad.push(format!("box off by {:.3e}", off.max_element()));
+            }
+            if m.max_chord_error > tolerance {
+                bad.push(format!("chord {:.3e}", m.max_chord_error));
+            }
+            let q = quality(&m.mesh);
+            // The mesh of the one shape asked for, to look at (`SURFC_SWEEP_OBJ=path`).
+            if let (true, Ok(path)) = (only, std::env::var("SURFC_SWEEP_OBJ")) {
+                let named = [NamedMesh {
+                    name: "shape",
+                    mesh: &m.mesh,
+                }];
+                write_mesh_file(path.as_ref(), Format::Obj, &named).expect("the OBJ is written");
+            }
+            report = format!(
+                "{what}: {} triangles, euler {}, {} refinement(s), smallest angle {:.1}°, mean radius ratio {:.4}, {:.2} s{}",
+                topo.triangles,
+                topo.euler_characteristic,
+                m.refinements,
+                q.min_angle_deg,
+                q.radius_ratio_mean,
+                t.elapsed().as_secs_f64(),
+                if bad.is_empty() {
+                    String::new()
+                } else {
+                    format!(" WRONG: {}", bad.join(", "))
+                }
+            ) + "\n";
+            if bad.is_empty() {
+                Verdict::Right {
+                    below_angle: (q.min_angle_deg < 30.0)
+                        .then(|| format!("{what}: {:.1}°", q.min_angle_deg)),
+                    below_ratio: (q.radius_ratio_mean < MEAN_RADIUS_RATIO)
+                        .then(|| format!("{what}: {:.4}", q.radius_ratio_mean)),
+                }
+            } else {
+                Verdict::Wrong(what)
+            }
+        }
+    };
+    Judged {
+        report,
+        verdict,
+        cut: pieces > 1,
+        voxel_checked,
+    }
+}
+
 /// The default settings, with the quality stage's aim `SURFC_SWEEP_RATIO` where that is set
 /// (a block's `radius_ratio:`; above the default a component is cut into finer slabs whose
 /// seams are polished, `pipeline::pieces`).
@@ -161,7 +325,6 @@ fn generated_shapes_are_meshed_right_or_refused() {
     let mut rng = Rng(seed);
     // One shape of the run alone (its number as printed), to look at it under SURFC_TRACE.
     let only: Option<usize> = env_number("SURFC_SWEEP_ONLY");
-    let mut voxel_checked = 0;
     // `SURFC_SWEEP_PIECES=N`: each shape marched as `surfc mesh` marches a start-point block
     // (`pipeline::pieces`, on the rayon pool), with a component of more than about N
     // triangles cut into slabs (as many as `pieces::march` makes of them by default) whose
@@ -176,138 +339,40 @@ fn generated_shapes_are_meshed_right_or_refused() {
         },
         None => aimed,
     };
-    let mut cut = 0;
     let started = std::time::Instant::now();
+    // The shapes drawn in order (the same draws whatever runs), then judged on the pool and
+    // reported in order.
+    let cases: Vec<(usize, Shape, f64)> = (0..n)
+        .map(|i| {
+            let sh = shape(&mut rng, i);
+            let step = sh.feature * log_range(&mut rng, 0.25, 4.0);
+            (i, sh, step)
+        })
+        .filter(|(i, ..)| only.is_none_or(|k| k == *i))
+        .collect();
+    let judged: Vec<Judged> = cases
+        .par_iter()
+        .map(|(i, sh, step)| {
+            judge_shape(*i, sh, *step, seed, only.is_some(), pieces_above, &settings)
+        })
+        .collect();
+    let (mut cut, mut voxel_checked) = (0, 0);
     let mut tally = Tally::default();
-    for i in 0..n {
-        let sh = shape(&mut rng, i);
-        let step = sh.feature * log_range(&mut rng, 0.25, 4.0);
-        if only.is_some_and(|k| k != i) {
-            continue;
-        }
-        let voxel = voxel_view(&sh);
-        if let Some((euler, components, _, _)) = voxel {
-            // The generator's known topology, confirmed independently of any mesh.
-            assert_eq!(
-                (euler, components),
-                (sh.euler, 1),
-                "{}: voxel count",
-                sh.name
-            );
-            voxel_checked += 1;
-        }
-        if !sh.bbox_exact && voxel.is_none() {
-            // A blob whose neck the voxel grid cannot resolve (another seed than the fixed
-            // one can draw it): no independent extent to check a mesh against.
-            assert!(seed != DEFAULT_SEED, "{}: no extent", sh.name);
-            println!("#{i} {}: skipped: no independent extent", sh.name);
-            tally.skipped += 1;
-            continue;
-        }
-        let mut s = sh.surface();
-        let input = MarchInput {
-            max_triangles: Some(500_000),
-            ..MarchInput::from_point(step, sh.start)
-        };
-        let tolerance = settings.tolerance * step;
-        let t = std::time::Instant::now();
-        // Fresh oracles for the quality stage's centroid round in blocks, and for the slabs.
-        let fork = || Some(sh.surface());
-        let (result, pieces) = match pieces_above {
-            None => (
-                march_verified(s.as_mut(), Some(&fork), &input, &settings, None),
-                1,
-            ),
-            Some(_) => match pieces::march(s.as_mut(), Some(&fork), &input, &settings, None) {
-                Ok(p) => (Ok(p.marched), p.pieces),
-                Err(e) => (Err(e), 1),
-            },
-        };
-        cut += usize::from(pieces > 1);
-        let what = format!(
-            "#{i} {} (feature {:.3}) at step {step:.4}{}",
-            sh.name,
-            sh.feature,
-            if pieces > 1 {
-                format!(" in {pieces} slabs")
-            } else {
-                String::new()
-            }
-        );
-        match result {
-            Err(e) => {
-                println!("{what}: refused: {e}");
-                tally.refused += 1;
-            }
-            Ok(m) => {
-                let (topo, violations) = check(
-                    &m.mesh,
-                    None,
-                    &Expect {
-                        closed: true,
-                        euler: Some(sh.euler),
-                        components: Some(1),
-                        // Quality is measured elsewhere; here only rightness counts.
-                        min_angle_deg: 0.0,
-                        ..Expect::default()
-                    },
-                );
-                let (lo, hi) = m.mesh.vertices.iter().fold(
-                    (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-                    |(lo, hi), &v| (lo.min(v), hi.max(v)),
-                );
-                // The extent: exact from the formula, else the voxel box (a cell wide).
-                let (want, slack) = match voxel {
-                    Some((_, _, b, cell)) if !sh.bbox_exact => (b, cell),
-                    _ => (sh.bbox, 0.0),
-                };
-                let off = (lo - want.0).abs().max((hi - want.1).abs());
-                let mut bad: Vec<String> = violations.iter().map(|v| format!("{v:?}")).collect();
-                if off.max_element() > tolerance + slack {
-                    bad.push(format!("box off by {:.3e}", off.max_element()));
-                }
-                if m.max_chord_error > tolerance {
-                    bad.push(format!("chord {:.3e}", m.max_chord_error));
-                }
-                let q = quality(&m.mesh);
-                // The mesh of the one shape asked for, to look at (`SURFC_SWEEP_OBJ=path`).
-                if let (Some(_), Ok(path)) = (only, std::env::var("SURFC_SWEEP_OBJ")) {
-                    let named = [NamedMesh {
-                        name: "shape",
-                        mesh: &m.mesh,
-                    }];
-                    write_mesh_file(path.as_ref(), Format::Obj, &named)
-                        .expect("the OBJ is written");
-                }
-                println!(
-                    "{what}: {} triangles, euler {}, {} refinement(s), smallest angle {:.1}°, mean radius ratio {:.4}, {:.2} s{}",
-                    topo.triangles,
-                    topo.euler_characteristic,
-                    m.refinements,
-                    q.min_angle_deg,
-                    q.radius_ratio_mean,
-                    t.elapsed().as_secs_f64(),
-                    if bad.is_empty() {
-                        String::new()
-                    } else {
-                        format!(" WRONG: {}", bad.join(", "))
-                    }
-                );
-                if bad.is_empty() {
-                    tally.right += 1;
-                    if q.min_angle_deg < 30.0 {
-                        tally
-                            .below_angle
-                            .push(format!("{what}: {:.1}°", q.min_angle_deg));
-                    }
-                    if q.radius_ratio_mean < MEAN_RADIUS_RATIO {
-                        tally
-                            .below_ratio
-                            .push(format!("{what}: {:.4}", q.radius_ratio_mean));
-                    }
-                } else {
-                    tally.wrong.push(what);
-                }
+    for j in judged {
+        print!("{}", j.report);
+        cut += usize::from(j.cut);
+        voxel_checked += usize::from(j.voxel_checked);
+        match j.verdict {
+            Verdict::Skipped => tally.skipped += 1,
+            Verdict::Refused => tally.refused += 1,
+            Verdict::Wrong(what) => tally.wrong.push(what),
+            Verdict::Right {
+                below_angle,
+                below_ratio,
+            } => {
+                tally.right += 1;
+                tally.below_angle.extend(below_angle);
+                tally.below_ratio.extend(below_ratio);
             }
         }
     }
