@@ -202,10 +202,10 @@ fn judge_shape(
     let fork = || Some(sh.surface());
     let (result, pieces) = match pieces_above {
         None => (
-            march_verified(s.as_mut(), Some(&fork), &input, &settings, None),
+            march_verified(s.as_mut(), Some(&fork), &input, settings, None),
             1,
         ),
-        Some(_) => match pieces::march(s.as_mut(), Some(&fork), &input, &settings, None) {
+        Some(_) => match pieces::march(s.as_mut(), Some(&fork), &input, settings, None) {
             Ok(p) => (Ok(p.marched), p.pieces),
             Err(e) => (Err(e), 1),
         },
