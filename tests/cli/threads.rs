@@ -101,7 +101,7 @@ fn every_gallery_file_is_the_same_bytes_for_any_thread_count() {
         }
         // The default run pins the OBJ at one thread against eight (the pool oversubscribed
         // on two cores); the long run at every count of `THREADS`.
-        let counts: &[&str] = if std::env::var_os("SURFC_THREADS_ALL").is_some_and(|v| v != "0") {
+        let counts: &[&str] = if common::env_flag("SURFC_THREADS_ALL") {
             &THREADS
         } else {
             &THREADS_BINARY

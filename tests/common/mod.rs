@@ -214,11 +214,17 @@ pub fn env_number<T: std::str::FromStr>(name: &str) -> Option<T> {
     std::env::var(name).ok()?.trim().parse().ok()
 }
 
+/// Whether the environment variable `name` is set to anything but `0`: the switches of the
+/// long runs (`SURFC_GALLERY_ALL`, `SURFC_THREADS_ALL`, `SURFC_DIST_COLD_ALL`).
+pub fn env_flag(name: &str) -> bool {
+    std::env::var_os(name).is_some_and(|v| v != "0")
+}
+
 /// Whether the gallery file `path` is left out of the default run: one of
 /// `SLOW_GALLERY_FILES`, unless the variable `all` (`SURFC_GALLERY_ALL`, `SURFC_THREADS_ALL`)
 /// is set to anything but `0`.
 pub fn skipped_gallery_file(path: &std::path::Path, all: &str) -> bool {
-    let everything = std::env::var_os(all).is_some_and(|v| v != "0");
+    let everything = env_flag(all);
     let stem = path.file_stem().unwrap_or_default();
     !everything && SLOW_GALLERY_FILES.iter().any(|slow| stem == *slow)
 }

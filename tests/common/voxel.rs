@@ -220,15 +220,15 @@ fn each_component(
         .collect();
     let mut stack = Vec::new();
     let mut members = Vec::new();
-    for start in 0..inside.len() {
-        let (i, j, k) = (start % mx, (start / mx) % my, start / (mx * my));
-        let s = padded(i, j, k);
-        if !open[s] {
+    // The padded grid in memory order is the grid's vertices in theirs (its border is never
+    // open): the components are visited in the same order.
+    for start in 0..open.len() {
+        if !open[start] {
             continue;
         }
         members.clear();
-        open[s] = false;
-        stack.push(s);
+        open[start] = false;
+        stack.push(start);
         while let Some(s) = stack.pop() {
             let (i, j, k) = (s % px - 1, (s / px) % py - 1, s / (px * py) - 1);
             members.push((k * my + j) * mx + i);

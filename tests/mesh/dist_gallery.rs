@@ -38,7 +38,7 @@ fn vertex_error(surface: &mut dyn Surface, p: DVec3) -> f64 {
 /// point), and every tenth by a surface compiled afresh for it (cold); every vertex cold with
 /// `SURFC_DIST_COLD_ALL=1` (`.ci/run` sets it; a compile per vertex is most of the time).
 fn assert_vertices_on_surface(path: &str, names: &[&str]) {
-    let cold_every = if std::env::var_os("SURFC_DIST_COLD_ALL").is_some_and(|v| v != "0") {
+    let cold_every = if common::env_flag("SURFC_DIST_COLD_ALL") {
         1
     } else {
         10
