@@ -8,6 +8,7 @@
 pub mod cells;
 pub mod clusters;
 pub mod faces;
+pub mod free_cells;
 pub mod gradient_jump;
 pub mod sizing;
 pub mod spine;

@@ -11,6 +11,7 @@
 
 use glam::DVec3;
 
+use super::free_cells::FreeCells;
 use crate::solve::SurfacePoint;
 use crate::surface::{Surface, ValueGrad};
 
@@ -225,14 +226,22 @@ impl Sizing {
         self.caps.caps.len()
     }
 
+    /// How far the thickness rays look from their point (model units).
+    pub fn reach(&self) -> f64 {
+        self.s.probe_reach * self.step
+    }
+
     /// h at a surface point: the smallest of the step, the curvature and thickness bounds
     /// and the caps, cut at the floor. `parent`: the size, position and normal of the point
-    /// this one was stepped from, whose probes it may inherit.
+    /// this one was stepped from, whose probes it may inherit. `free`: cells for rays of
+    /// [`Sizing::reach`] that may prove the thickness rays would find nothing (the same
+    /// size, fewer evaluations).
     pub fn size(
         &self,
         surface: &mut dyn Surface,
         sp: &SurfacePoint,
         parent: Option<(&Size, DVec3, DVec3)>,
+        free: Option<&mut FreeCells>,
     ) -> Size {
         if self.uniform {
             return Size {
@@ -245,10 +254,18 @@ impl Sizing {
         let caps = self.caps.bound(sp.point, self.step);
         let (free, rho) = match parent.and_then(|(ps, pp, pn)| self.inherited(sp, ps, pp, pn)) {
             Some(got) => got,
-            None => (
-                self.thickness(surface, sp),
-                self.curvature_radius(surface, sp),
-            ),
+            None => {
+                let proven = free.is_some_and(|cells| {
+                    debug_assert_eq!(cells.reach(), self.reach());
+                    cells.proves_free(surface, sp.point, sp.normal)
+                });
+                let free = if proven {
+                    self.reach()
+                } else {
+                    self.thickness(surface, sp)
+                };
+                (free, self.curvature_radius(surface, sp))
+            }
         };
         let h = self
             .step
@@ -364,7 +381,7 @@ impl Sizing {
     /// estimate, so a sheet passing close to the ray is sampled densely and one far from it
     /// is skipped quickly.
     fn probe(&self, surface: &mut dyn Surface, p: DVec3, ray: &mut Probe, vg: ValueGrad) {
-        let reach = self.s.probe_reach * self.step;
+        let reach = self.reach();
         let (lo, hi) = (self.s.probe_min * reach, self.s.probe_max * reach);
         if !vg.value.is_finite() {
             ray.found = Some(reach);
@@ -440,7 +457,7 @@ struct Probe {
 
 impl Probe {
     fn new(sizing: &Sizing, dir: DVec3, side: f64) -> Probe {
-        let reach = sizing.s.probe_reach * sizing.step;
+        let reach = sizing.reach();
         let t = sizing.s.probe_max * reach;
         Probe {
             dir,
@@ -767,7 +784,7 @@ mod tests {
         let t = sizing.other_sheet(&mut s, p, -DVec3::Z, -1.0);
         assert!((t - 0.1).abs() < 0.01, "{t}");
         assert_eq!(sizing.other_sheet(&mut s, p, DVec3::Z, 1.0), 5.0);
-        let size = sizing.size(&mut s, &at(p, DVec3::Z), None);
+        let size = sizing.size(&mut s, &at(p, DVec3::Z), None, None);
         assert!(size.h <= 0.4 * 0.1 * 1.1 && !size.floored, "{size:?}");
     }
 

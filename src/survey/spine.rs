@@ -187,6 +187,22 @@ impl Form {
         v
     }
 
+    /// The form's value and partials bounded where each branch k's lie in `bound(k)` (None
+    /// when a branch's are unknown).
+    pub fn bound_gradient(
+        &self,
+        mut bound: impl FnMut(usize) -> Option<IntervalGrad>,
+    ) -> Option<IntervalGrad> {
+        let mut acc = IntervalGrad::constant(Interval::point(self.constant));
+        for &(k, c) in &self.terms {
+            let g = bound(k)?;
+            let c = Interval::point(c);
+            let v = interval(Op::Add, acc.v, interval(Op::Mul, g.v, c));
+            acc = acc.chain2(g, v, Interval::point(1.0), c);
+        }
+        Some(acc)
+    }
+
     /// An interval holding the form where each branch k lies in `bound(k)`.
     pub fn bound(&self, mut bound: impl FnMut(usize) -> Interval) -> Interval {
         let mut acc = Interval::point(self.constant);
@@ -996,21 +1012,14 @@ impl Creased {
         let forms = pruned.candidates(None, MAX_CELL_FORMS).ok()?;
         let mut grads: HashMap<usize, IntervalGrad> = HashMap::new();
         for cand in &forms {
-            let mut acc = IntervalGrad::constant(Interval::point(cand.form.constant));
-            for &(k, c) in &cand.form.terms {
-                let g = match grads.get(&k) {
-                    Some(g) => *g,
-                    None => {
-                        let g = self.branches[k].bound_gradient(lo, hi, axes)?;
-                        grads.insert(k, g);
-                        g
-                    }
-                };
-                let c = Interval::point(c);
-                let v = interval(Op::Add, acc.v, interval(Op::Mul, g.v, c));
-                acc = acc.chain2(g, v, Interval::point(1.0), c);
-            }
-            each(acc);
+            each(cand.form.bound_gradient(|k| match grads.get(&k) {
+                Some(g) => Some(*g),
+                None => {
+                    let g = branches[k].bound_gradient(lo, hi, axes)?;
+                    grads.insert(k, g);
+                    Some(g)
+                }
+            })?);
         }
         Some(value)
     }
@@ -1254,6 +1263,17 @@ impl Creased {
 
 /// An interval holding `form` over the box lo..hi from its branches' bounds (None when a
 /// branch cannot bound itself).
+/// [`bound_on`] with the partials the axes ask for.
+fn bound_gradient_on(
+    form: &Form,
+    branches: &mut [Box<dyn Surface>],
+    lo: DVec3,
+    hi: DVec3,
+    axes: [bool; 3],
+) -> Option<IntervalGrad> {
+    form.bound_gradient(|k| branches[k].bound_gradient(lo, hi, axes))
+}
+
 fn bound_on(
     form: &Form,
     branches: &mut [Box<dyn Surface>],
@@ -1332,6 +1352,10 @@ impl Surface for Detached {
         bound_on(&self.form, &mut self.branches, lo, hi)
     }
 
+    fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
+        bound_gradient_on(&self.form, &mut self.branches, lo, hi, axes)
+    }
+
     fn fault(&self) -> Option<Fault> {
         self.branches.iter().find_map(|b| b.fault())
     }
@@ -1350,6 +1374,16 @@ impl Surface for Piece<'_> {
 
     fn bound(&mut self, lo: DVec3, hi: DVec3) -> Option<Interval> {
         self.of.form_bound(self.form, lo, hi)
+    }
+
+    fn bound_gradient(&mut self, lo: DVec3, hi: DVec3, axes: [bool; 3]) -> Option<IntervalGrad> {
+        bound_gradient_on(
+            &self.of.forms[self.form],
+            &mut self.of.branches,
+            lo,
+            hi,
+            axes,
+        )
     }
 
     fn fault(&self) -> Option<Fault> {

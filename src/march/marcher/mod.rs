@@ -29,6 +29,7 @@ use crate::mesh::Mesh;
 use crate::mesh::progress::Tally;
 use crate::solve::{SurfacePoint, surface_point, tangent_frame};
 use crate::surface::Surface;
+use crate::survey::free_cells::FreeCells;
 use crate::survey::gradient_jump;
 use crate::survey::sizing::{Size, Sizing};
 
@@ -134,6 +135,7 @@ pub(super) fn run<'s>(
         s: *settings,
         step,
         sizing,
+        free_cells: FreeCells::new(sizing.reach()),
         h: Vec::new(),
         size: Vec::new(),
         floored: None,
@@ -201,6 +203,8 @@ struct Marcher<'s> {
     s: MarchSettings,
     step: f64,
     sizing: &'s Sizing,
+    /// Where the sizing's thickness rays are proven free (`survey::free_cells`).
+    free_cells: FreeCells,
     /// Per point: the local step h (≤ step), graded from its parent.
     h: Vec<f64>,
     /// Per point: what the sizing found there (inherited by the points made from it).
@@ -265,6 +269,7 @@ impl Marcher<'_> {
             self.surface,
             &sp,
             from.as_ref().map(|(s, p, n)| (s, *p, *n)),
+            Some(&mut self.free_cells),
         );
         self.size.push(size);
         if size.floored && self.floored.is_none() {

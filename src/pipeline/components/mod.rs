@@ -683,7 +683,7 @@ impl Search<'_> {
     /// `sp` with the local step the march would take there (the step itself with
     /// `uniform: true`), and the part of it that the thickness across sets.
     fn sized(&mut self, sp: SurfacePoint) -> Seed {
-        let size = self.sizing.size(self.surface, &sp, None);
+        let size = self.sizing.size(self.surface, &sp, None, None);
         let across =
             (self.sizing.settings().thickness_fraction * size.free).clamp(size.h, self.step);
         Seed {

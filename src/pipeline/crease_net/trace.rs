@@ -1057,7 +1057,7 @@ impl<'a> Tracer<'a> {
                     t1,
                     t2,
                 };
-                h = h.min(sizing.size(&mut self.c.piece(f), &sp, None).h);
+                h = h.min(sizing.size(&mut self.c.piece(f), &sp, None, None).h);
             }
             field.push((line.at(k), (CREASE_SHARE * h).max(floor)));
         }

@@ -592,7 +592,7 @@ pub(super) fn local_step(s: &mut dyn Surface, sizing: &Sizing, p: DVec3) -> f64 
         t1,
         t2,
     };
-    sizing.size(s, &sp, None).h
+    sizing.size(s, &sp, None, None).h
 }
 
 /// Every point of `a` within `reach` of the polyline `b` (closed: its last point joined to
