@@ -46,7 +46,7 @@ use crate::mesh::edges::Edges;
 use crate::mesh::progress::Tally;
 use crate::solve::SurfacePointError;
 use crate::surface::{Fork, Surface};
-use crate::survey::sizing::{Cap, Sizing};
+use crate::survey::sizing::{Cap, PresetCaps, Sizing};
 use verify::Flaw;
 
 /// Where the triangulation starts.
@@ -356,7 +356,14 @@ pub fn march_verified(
     settings: &MarchSettings,
     progress: Option<&std::sync::atomic::AtomicU64>,
 ) -> Result<Marched, MarchError> {
-    march_verified_capped(surface, fork, input, settings, progress, &[])
+    march_verified_capped(
+        surface,
+        fork,
+        input,
+        settings,
+        progress,
+        &PresetCaps::none(),
+    )
 }
 
 /// A part of a finished, verified mesh to go through the quality stage again: where slabs
@@ -418,7 +425,7 @@ pub fn march_verified_capped(
     input: &MarchInput,
     settings: &MarchSettings,
     progress: Option<&std::sync::atomic::AtomicU64>,
-    caps: &[Cap],
+    caps: &PresetCaps,
 ) -> Result<Marched, MarchError> {
     let tally = Tally::new(progress);
     let result = verified(surface, fork, input, settings, &tally, caps);
@@ -436,7 +443,7 @@ fn verified(
     input: &MarchInput,
     settings: &MarchSettings,
     tally: &Tally<'_>,
-    caps: &[Cap],
+    caps: &PresetCaps,
 ) -> Result<Marched, MarchError> {
     let step = input.step;
     if !(step.is_finite() && step > 0.0) {
@@ -448,7 +455,7 @@ fn verified(
     }
     let mut sizing = Sizing::of_mesh(step, tolerance, input.uniform, settings.sizing);
     if !caps.is_empty() && !input.uniform {
-        sizing.add_caps(caps.iter().copied());
+        sizing.add_preset(caps);
     }
     let mut round = 0;
     let mut peak_triangles = 0;

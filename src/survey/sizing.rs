@@ -97,6 +97,44 @@ pub struct Cap {
     pub size: f64,
 }
 
+/// Caps set before a march, with their tree built once for every march that shares them: a
+/// crease net's pieces all start from the caps of its narrow faces (24 pieces on the CAD plate
+/// of issue 41, each building the same tree of 4 400 caps, took 1.7 % of its instructions).
+#[derive(Clone, Debug)]
+pub struct PresetCaps {
+    tree: CapTree,
+    step: f64,
+    floor: f64,
+}
+
+impl PresetCaps {
+    /// `caps` for marches of `step` with `settings` (sizes below the floor raised to it).
+    pub fn new(caps: impl IntoIterator<Item = Cap>, step: f64, settings: &SizingSettings) -> Self {
+        let floor = settings.min_size * step;
+        let caps = caps
+            .into_iter()
+            .map(|c| Cap {
+                at: c.at,
+                size: c.size.max(floor),
+            })
+            .collect();
+        PresetCaps {
+            tree: CapTree::new(settings.grading, caps, step),
+            step,
+            floor,
+        }
+    }
+
+    /// No caps.
+    pub fn none() -> Self {
+        PresetCaps::new(Vec::new(), 1.0, &SizingSettings::default())
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.tree.caps.is_empty()
+    }
+}
+
 /// The local step of one mesh.
 #[derive(Clone, Debug)]
 pub struct Sizing {
@@ -178,6 +216,22 @@ impl Sizing {
             size: c.size.max(floor),
         }));
         self.caps = CapTree::new(self.s.grading, all, self.step);
+    }
+
+    /// Adds `preset`'s caps: its tree as it is where this sizing has none yet and the tree was
+    /// built for its step, floor and grading (what `add_caps` would build from the same caps:
+    /// a query's bound is the least over the same caps, whatever the tree's order), else its
+    /// caps one by one.
+    pub fn add_preset(&mut self, preset: &PresetCaps) {
+        if self.caps.caps.is_empty()
+            && preset.step == self.step
+            && preset.floor == self.floor()
+            && preset.tree.grading == self.s.grading
+        {
+            self.caps = preset.tree.clone();
+        } else {
+            self.add_caps(preset.tree.caps.iter().copied());
+        }
     }
 
     /// The regrading pass (docs/marcher.md, *Grading both ways*). Grading from a point's

@@ -59,7 +59,7 @@ use crate::mesh::check::ANY_GROUP;
 use crate::mesh::progress::Counts;
 use crate::surface::{BranchFork, Surface};
 use crate::survey::faces::{FaceError, FaceSettings};
-use crate::survey::sizing::{Cap, Sizing};
+use crate::survey::sizing::{Cap, PresetCaps, Sizing};
 use crate::survey::spine::{Creased, Detached, Form, Whole};
 use join::{Side, bits, chain, check_joined, check_smooth};
 pub(crate) use join::{merge, merge_at};
@@ -418,6 +418,8 @@ fn mesh_creased_once(
             }
         }
     }
+    // Their tree built once for all the pieces.
+    let caps = PresetCaps::new(caps, step, &march_settings.sizing);
     let mut out = CreasedMesh {
         creases: traced.len(),
         corners: t.corners.len(),
