@@ -33,12 +33,19 @@ use crate::values::floor;
 /// this 12.85.)
 const MIN_RISE: f64 = 1e-3;
 
-/// The cells met so far, with the partials' bounds over each one's grown box (None where the
-/// surface gave none it can vouch for).
+/// The cells met so far, with the partials' bounds over each one's grown box and the rise
+/// a normal must find in them (None where the surface gave none it can vouch for).
 pub struct FreeCells {
     reach: f64,
     inv_side: f64,
-    cells: HashMap<[i64; 3], Option<[Interval; 3]>, BitsHash>,
+    cells: HashMap<[i64; 3], Option<Partials>, BitsHash>,
+}
+
+/// A cell's partials' bounds, and `MIN_RISE` times their largest norm: what g·n must exceed.
+#[derive(Clone, Copy)]
+struct Partials {
+    d: [Interval; 3],
+    least_rise: f64,
 }
 
 impl FreeCells {
@@ -72,15 +79,11 @@ impl FreeCells {
             let (lo, hi) = (corner - grow, corner + DVec3::splat(reach) + grow);
             partials_over(surface, lo, hi)
         });
-        let Some(d) = partials else {
+        let Some(Partials { d, least_rise }) = *partials else {
             return false;
         };
         let rise: f64 = (0..3).map(|k| (d[k].lo * n[k]).min(d[k].hi * n[k])).sum();
-        let largest = (0..3)
-            .map(|k| d[k].lo.abs().max(d[k].hi.abs()).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        rise.is_finite() && largest.is_finite() && rise > MIN_RISE * largest
+        rise.is_finite() && rise > least_rise
     }
 }
 
@@ -90,11 +93,19 @@ impl FreeCells {
 /// high degree) took genus 3 from 16.29 to 15.74 point evaluations a vertex and the three
 /// cylinders from 13.75 to 13.63 (with a rise of 0.1 asked), for eight times the interval
 /// evaluations.
-fn partials_over(surface: &mut dyn Surface, lo: DVec3, hi: DVec3) -> Option<[Interval; 3]> {
-    surface
+fn partials_over(surface: &mut dyn Surface, lo: DVec3, hi: DVec3) -> Option<Partials> {
+    let d = surface
         .bound_gradient(lo, hi, [true; 3])
-        .filter(|g| g.defined)
-        .map(|g| g.d)
+        .filter(|g| g.defined)?
+        .d;
+    let largest = (0..3)
+        .map(|k| d[k].lo.abs().max(d[k].hi.abs()).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    largest.is_finite().then_some(Partials {
+        d,
+        least_rise: MIN_RISE * largest,
+    })
 }
 
 #[cfg(test)]

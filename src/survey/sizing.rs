@@ -111,13 +111,7 @@ impl PresetCaps {
     /// `caps` for marches of `step` with `settings` (sizes below the floor raised to it).
     pub fn new(caps: impl IntoIterator<Item = Cap>, step: f64, settings: &SizingSettings) -> Self {
         let floor = settings.min_size * step;
-        let caps = caps
-            .into_iter()
-            .map(|c| Cap {
-                at: c.at,
-                size: c.size.max(floor),
-            })
-            .collect();
+        let caps = floored(caps, floor).collect();
         PresetCaps {
             tree: CapTree::new(settings.grading, caps, step),
             step,
@@ -133,6 +127,14 @@ impl PresetCaps {
     pub fn is_empty(&self) -> bool {
         self.tree.caps.is_empty()
     }
+}
+
+/// `caps` with sizes below `floor` raised to it.
+fn floored(caps: impl IntoIterator<Item = Cap>, floor: f64) -> impl Iterator<Item = Cap> {
+    caps.into_iter().map(move |c| Cap {
+        at: c.at,
+        size: c.size.max(floor),
+    })
 }
 
 /// The local step of one mesh.
@@ -209,12 +211,8 @@ impl Sizing {
 
     /// Adds caps (from a failed verification); sizes below the floor are raised to it.
     pub fn add_caps(&mut self, caps: impl IntoIterator<Item = Cap>) {
-        let floor = self.floor();
         let mut all = std::mem::take(&mut self.caps.caps);
-        all.extend(caps.into_iter().map(|c| Cap {
-            at: c.at,
-            size: c.size.max(floor),
-        }));
+        all.extend(floored(caps, self.floor()));
         self.caps = CapTree::new(self.s.grading, all, self.step);
     }
 

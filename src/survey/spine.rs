@@ -1261,8 +1261,6 @@ impl Creased {
     }
 }
 
-/// An interval holding `form` over the box lo..hi from its branches' bounds (None when a
-/// branch cannot bound itself).
 /// [`bound_on`] with the partials the axes ask for.
 fn bound_gradient_on(
     form: &Form,
@@ -1274,6 +1272,8 @@ fn bound_gradient_on(
     form.bound_gradient(|k| branches[k].bound_gradient(lo, hi, axes))
 }
 
+/// An interval holding `form` over the box lo..hi from its branches' bounds (None when a
+/// branch cannot bound itself).
 fn bound_on(
     form: &Form,
     branches: &mut [Box<dyn Surface>],
