@@ -833,16 +833,7 @@ impl Creased {
             apart: HashSet::new(),
             at: None,
             generation: 1,
-            cache: vec![
-                (
-                    0,
-                    ValueGrad {
-                        value: f64::NAN,
-                        gradient: DVec3::NAN,
-                    },
-                );
-                n
-            ],
+            cache: blank_cache(n),
             local_size: None,
             local: HashMap::default(),
             last_local: Default::default(),
@@ -1259,6 +1250,75 @@ impl Creased {
     pub fn form_terms(&self, i: usize) -> Form {
         self.forms[i].clone()
     }
+
+    /// This surface without its oracles, for threads that put it on branches of their own
+    /// ([`Shape::on`]).
+    pub fn shape(&self) -> Shape {
+        Shape {
+            spine: Arc::clone(&self.spine),
+            forms: self.forms.clone(),
+            index: self.index.clone(),
+            seams: self.seams.clone(),
+            enumerated: self.enumerated,
+            parent: self.parent.clone(),
+            apart: self.apart.clone(),
+            local_size: self.local_size,
+            local: self.local.clone(),
+        }
+    }
+}
+
+/// A [`Creased`] without its oracles (its spine, forms, faces and the cells pruned so far),
+/// shared by threads that each put it on fresh oracles of the branches (`BranchFork`): a
+/// copy answers every point query as the original does (the same branches, the same cells
+/// pruned, on demand where not yet); what a copy registers or learns stays in the copy.
+pub struct Shape {
+    spine: Arc<Spine>,
+    forms: Vec<Form>,
+    index: HashMap<Vec<u64>, usize>,
+    seams: HashMap<(usize, usize), Between>,
+    enumerated: bool,
+    parent: Vec<usize>,
+    apart: HashSet<(usize, usize)>,
+    local_size: Option<f64>,
+    local: HashMap<(u32, [i64; 3]), Arc<Spine>, BitsHash>,
+}
+
+impl Shape {
+    /// The surface on `branches` (fresh oracles of the spine's branches, in its order); None
+    /// when they are not as many.
+    pub fn on(&self, branches: Vec<Box<dyn Surface>>) -> Option<Creased> {
+        let n = branches.len();
+        (n == self.spine.branch_count()).then(|| Creased {
+            spine: Arc::clone(&self.spine),
+            branches,
+            forms: self.forms.clone(),
+            index: self.index.clone(),
+            seams: self.seams.clone(),
+            enumerated: self.enumerated,
+            parent: self.parent.clone(),
+            apart: self.apart.clone(),
+            at: None,
+            generation: 1,
+            cache: blank_cache(n),
+            local_size: self.local_size,
+            local: self.local.clone(),
+            last_local: Default::default(),
+            branch_values: Vec::new(),
+            term_scratch: Vec::new(),
+            key_scratch: Vec::new(),
+        })
+    }
+}
+
+/// The branch cache of a surface with n branches before any point is asked (generation 0,
+/// older than every point's).
+fn blank_cache(n: usize) -> Vec<(u64, ValueGrad)> {
+    let unknown = ValueGrad {
+        value: f64::NAN,
+        gradient: DVec3::NAN,
+    };
+    vec![(0, unknown); n]
 }
 
 /// [`bound_on`] with the partials the axes ask for.

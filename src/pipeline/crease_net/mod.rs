@@ -348,10 +348,7 @@ fn mesh_creased_once(
     let caps: Vec<Cap> = if marching.uniform {
         Vec::new()
     } else {
-        traced
-            .iter()
-            .flat_map(|tr| width::caps(&mut t, tr, &traced, &index))
-            .collect()
+        width::all_caps(&mut t, &traced, &index, branches)
     };
     sizing.add_caps(caps.iter().copied());
     let mut polygons = Vec::with_capacity(traced.len());

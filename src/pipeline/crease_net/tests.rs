@@ -1,4 +1,5 @@
-//! The smooth pieces marched side by side on fresh oracles of the branches are the pieces
+//! The smooth pieces marched side by side on fresh oracles of the branches (and the widths
+//! of the faces beside the creases measured side by side, `width::all_caps`) are the pieces
 //! marched one after another on the surface itself: the same mesh bit for bit, the same
 //! warnings, and under a `max_triangles` that the pieces share, the same refusal, on pools
 //! of one, two and four threads.
@@ -14,8 +15,10 @@ use crate::pipeline::creased::creased_of;
 use crate::surface::Surface;
 
 /// Parts of several pieces: a plate with two holes, an L of two boxes sharing face planes,
-/// a boss with a hole through it on a plate, a ring of boxes turned about z.
-const PARTS: [&str; 4] = [
+/// a boss with a hole through it on a plate, a ring of boxes turned about z, and a plate two
+/// steps thin with a hole (its rim and the hole's wall narrower than `width::REACH` steps:
+/// the local step capped along every crease).
+const PARTS: [&str; 5] = [
     "surface p = difference(box((-1, -0.6, 0), (1, 0.6, 0.2)), union(translate(cylinder(0.15, 1), (-0.5, 0, 0)), translate(cylinder(0.2, 1), (0.5, 0.1, 0))));
      mesh p = p { step: 0.06; box: (-1.2, -0.8, -0.2) .. (1.2, 0.8, 0.4); }",
     "surface p = union(box((0, 0, 0), (1, 0.2, 0.5)), box((0, 0, 0), (0.2, 0.8, 0.5)));
@@ -25,6 +28,8 @@ const PARTS: [&str; 4] = [
     "surface b = box((0.4, -0.1, -0.1), (0.8, 0.1, 0.1));
      surface p = union(b, rotate(b, axis: (0, 0, 1), angle: pi / 2), rotate(b, axis: (0, 0, 1), angle: pi), rotate(b, axis: (0, 0, 1), angle: 3 * pi / 2));
      mesh p = p { step: 0.04; box: (-1, -1, -0.3) .. (1, 1, 0.3); }",
+    "surface p = difference(box((-0.6, -0.4, 0), (0.6, 0.4, 0.08)), translate(cylinder(0.15, 1), (0.1, 0, 0)));
+     mesh p = p { step: 0.04; box: (-0.7, -0.5, -0.1) .. (0.7, 0.5, 0.2); }",
 ];
 
 /// What a meshing gave: the mesh's bits and the warnings, or the error's message.

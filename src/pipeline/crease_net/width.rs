@@ -31,8 +31,11 @@
 
 use glam::DVec3;
 
+use rayon::prelude::*;
+
 use super::pair::FineIndex;
 use super::trace::{Traced, Tracer};
+use crate::surface::BranchFork;
 use crate::survey::sizing::Cap;
 
 /// The face's end is looked for at these fractions of the step (eighths), then bisected.
@@ -60,14 +63,63 @@ const ON: f64 = 1e-4;
 /// How far out along a face's normal (a fraction of the step, above `ON`) f must be positive.
 const OUT: f64 = 1e-3;
 
-/// Caps of the local step at points of `tr` where a face beside it is narrower than `REACH`
-/// steps: its width divided into whole rows of triangles.
-pub(super) fn caps(
+/// `caps` of every crease of `traced`, in their order. A crease's caps are its own (the
+/// others are only read), so with fresh oracles of the branches (`branches`) and more than
+/// one thread, runs of creases of about equal length are measured side by side on the
+/// pool, each on a copy of the surface on branches of its own (`Shape::on`): the same caps
+/// for any number of threads. Where a copy cannot be made or meets a fault, all are
+/// measured here, on `t`'s surface.
+pub(super) fn all_caps(
     t: &mut Tracer<'_>,
-    tr: &Traced,
     traced: &[Traced],
     index: &FineIndex,
+    branches: Option<&BranchFork<'_>>,
 ) -> Vec<Cap> {
+    let each = |t: &mut Tracer<'_>, run: &[Traced]| -> Vec<Cap> {
+        run.iter()
+            .flat_map(|tr| caps(t, tr, traced, index))
+            .collect()
+    };
+    let threads = rayon::current_num_threads();
+    let Some(fork) = branches.filter(|_| threads > 1 && traced.len() > 1) else {
+        return each(t, traced);
+    };
+    // Four runs a thread (the creases differ in cost), cut where the points reach each
+    // share of all of them.
+    let total: usize = traced.iter().map(|tr| tr.points.len()).sum();
+    let runs = (4 * threads).min(traced.len());
+    let mut cuts = vec![0];
+    let mut seen = 0;
+    for (k, tr) in traced.iter().enumerate() {
+        seen += tr.points.len();
+        if seen * runs >= cuts.len() * total && k + 1 < traced.len() {
+            cuts.push(k + 1);
+        }
+    }
+    cuts.push(traced.len());
+    cuts.dedup();
+    let shape = t.c.shape();
+    let (step, bbox, settings) = (t.step, t.bbox, t.s);
+    let measured: Option<Vec<Vec<Cap>>> = cuts
+        .par_windows(2)
+        .map(|run| {
+            let mut c = shape.on(fork()?)?;
+            let out = each(
+                &mut Tracer::new(&mut c, step, bbox, settings),
+                &traced[run[0]..run[1]],
+            );
+            c.fault().is_none().then_some(out)
+        })
+        .collect();
+    match measured {
+        Some(runs) => runs.concat(),
+        None => each(t, traced),
+    }
+}
+
+/// Caps of the local step at points of `tr` where a face beside it is narrower than `REACH`
+/// steps: its width divided into whole rows of triangles.
+fn caps(t: &mut Tracer<'_>, tr: &Traced, traced: &[Traced], index: &FineIndex) -> Vec<Cap> {
     let (i, j) = tr.forms;
     let points = &tr.points;
     let mut out = Vec::new();
