@@ -820,27 +820,19 @@ impl Creased {
             .enumerate()
             .map(|(i, f)| (f.key(), i))
             .collect();
-        let n = branches.len();
         let parent = (0..forms.len()).collect();
-        Ok(Creased {
+        let shape = Shape {
             spine: Arc::new(spine),
-            branches,
             forms,
             index,
             seams,
             enumerated,
             parent,
             apart: HashSet::new(),
-            at: None,
-            generation: 1,
-            cache: blank_cache(n),
             local_size: None,
             local: HashMap::default(),
-            last_local: Default::default(),
-            branch_values: Vec::new(),
-            term_scratch: Vec::new(),
-            key_scratch: Vec::new(),
-        })
+        };
+        Ok(shape.into_creased(branches))
     }
 
     /// Prunes the spine over cells of side `size` for the point queries that follow (`whole`,
@@ -1272,6 +1264,7 @@ impl Creased {
 /// shared by threads that each put it on fresh oracles of the branches (`BranchFork`): a
 /// copy answers every point query as the original does (the same branches, the same cells
 /// pruned, on demand where not yet); what a copy registers or learns stays in the copy.
+#[derive(Clone)]
 pub struct Shape {
     spine: Arc<Spine>,
     forms: Vec<Form>,
@@ -1288,37 +1281,37 @@ impl Shape {
     /// The surface on `branches` (fresh oracles of the spine's branches, in its order); None
     /// when they are not as many.
     pub fn on(&self, branches: Vec<Box<dyn Surface>>) -> Option<Creased> {
-        let n = branches.len();
-        (n == self.spine.branch_count()).then(|| Creased {
-            spine: Arc::clone(&self.spine),
+        (branches.len() == self.spine.branch_count()).then(|| self.clone().into_creased(branches))
+    }
+
+    /// The surface on `branches` (as many as the spine's), its point caches empty.
+    fn into_creased(self, branches: Vec<Box<dyn Surface>>) -> Creased {
+        let unknown = ValueGrad {
+            value: f64::NAN,
+            gradient: DVec3::NAN,
+        };
+        // Generation 0: older than every point's.
+        let cache = vec![(0, unknown); branches.len()];
+        Creased {
+            spine: self.spine,
             branches,
-            forms: self.forms.clone(),
-            index: self.index.clone(),
-            seams: self.seams.clone(),
+            forms: self.forms,
+            index: self.index,
+            seams: self.seams,
             enumerated: self.enumerated,
-            parent: self.parent.clone(),
-            apart: self.apart.clone(),
+            parent: self.parent,
+            apart: self.apart,
             at: None,
             generation: 1,
-            cache: blank_cache(n),
+            cache,
             local_size: self.local_size,
-            local: self.local.clone(),
+            local: self.local,
             last_local: Default::default(),
             branch_values: Vec::new(),
             term_scratch: Vec::new(),
             key_scratch: Vec::new(),
-        })
+        }
     }
-}
-
-/// The branch cache of a surface with n branches before any point is asked (generation 0,
-/// older than every point's).
-fn blank_cache(n: usize) -> Vec<(u64, ValueGrad)> {
-    let unknown = ValueGrad {
-        value: f64::NAN,
-        gradient: DVec3::NAN,
-    };
-    vec![(0, unknown); n]
 }
 
 /// [`bound_on`] with the partials the axes ask for.
